@@ -1,0 +1,144 @@
+//! seam-tests — conformance, acceptance, stability and fault tests of seam.
+//!
+//! # Layout
+//!
+//! - this file — [`TestContext`]: a per-test isolated transport URL (a unique iceoryx2 prefix on
+//!   shared memory, unique channel names everywhere) and the Redis policy below.
+//! - `src/bin/peer.rs` — `seam-test-peer`, the child process that cross-process tests spawn.
+//! - `tests/conformance.rs` — the transport contract, written once and run on shm, local, redis.
+//! - `tests/cross_process.rs` — shm and redis between two real processes.
+//! - `tests/alloc_free.rs` — the steady-state shm path allocates nothing (counting allocator).
+//!
+//! Redis tests talk to `SEAM_REDIS_URL` (default `redis://127.0.0.1:6379`). When no server answers
+//! they print a skip notice and pass, unless `SEAM_REQUIRE_REDIS=1`, under which they fail.
+
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+use seam_transport::{Backend, OwnedMessage, Transport};
+
+/// Where Redis tests connect unless `SEAM_REDIS_URL` says otherwise.
+pub const DEFAULT_REDIS_URL: &str = "redis://127.0.0.1:6379";
+
+/// Everything one test needs to stay out of every other test's way.
+pub struct TestContext {
+    backend: Backend,
+    id: String,
+}
+
+impl TestContext {
+    /// A context for `backend`, or `None` (after printing why) when the test must be skipped:
+    /// only Redis tests are ever skipped, and only without `SEAM_REQUIRE_REDIS=1`.
+    pub fn new(backend: Backend) -> Option<Self> {
+        static COUNTER: AtomicU32 = AtomicU32::new(0);
+        let id = format!(
+            "t{}x{}",
+            std::process::id(),
+            COUNTER.fetch_add(1, Ordering::Relaxed)
+        );
+        let context = Self { backend, id };
+        if backend == Backend::Redis
+            && let Err(e) = seam_transport::open(&redis_url())
+        {
+            if std::env::var("SEAM_REQUIRE_REDIS").as_deref() == Ok("1") {
+                panic!("SEAM_REQUIRE_REDIS=1 but Redis is not usable: {e}");
+            }
+            eprintln!(
+                "SKIP: no Redis server answers ({e}); set SEAM_REQUIRE_REDIS=1 to fail instead"
+            );
+            return None;
+        }
+        Some(context)
+    }
+
+    /// The backend under test.
+    pub fn backend(&self) -> Backend {
+        self.backend
+    }
+
+    /// The URL of an isolated transport, with extra `key=value` settings for iceoryx2 backends
+    /// (Redis ignores them: its limits are the server's).
+    pub fn url_with(&self, settings: &str) -> String {
+        match self.backend {
+            Backend::Redis => redis_url(),
+            backend => {
+                let mut url = format!("{}?prefix=seam_{}_", backend.name(), self.id);
+                if !settings.is_empty() {
+                    url.push('&');
+                    url.push_str(settings);
+                }
+                url
+            }
+        }
+    }
+
+    /// The URL of an isolated transport with default settings.
+    pub fn url(&self) -> String {
+        self.url_with("")
+    }
+
+    /// Opens a transport on this test's URL.
+    pub fn open(&self) -> Box<dyn Transport> {
+        self.open_with("")
+    }
+
+    /// Opens a transport with extra settings (see [`Self::url_with`]).
+    pub fn open_with(&self, settings: &str) -> Box<dyn Transport> {
+        let url = self.url_with(settings);
+        seam_transport::open(&url).unwrap_or_else(|e| panic!("cannot open {url}: {e}"))
+    }
+
+    /// A channel name unique to this test.
+    pub fn channel(&self, name: &str) -> String {
+        format!("{}:{name}", self.id)
+    }
+}
+
+/// The Redis URL tests use.
+pub fn redis_url() -> String {
+    std::env::var("SEAM_REDIS_URL").unwrap_or_else(|_| DEFAULT_REDIS_URL.to_owned())
+}
+
+/// Receives one message, waiting up to `timeout`; panics on a transport error.
+pub fn receive(transport: &mut dyn Transport, timeout: Duration) -> Option<OwnedMessage> {
+    transport
+        .receive_timeout(timeout)
+        .unwrap_or_else(|e| panic!("receive failed: {e}"))
+        .map(|m| m.to_owned())
+}
+
+/// Publishes on `channel` until the publish reaches at least `receivers` subscribers (a pattern
+/// subscriber on shm must first discover the channel), letting `receiver` run discovery between
+/// tries. Returns the message the receiver got. Panics after `timeout`.
+pub fn publish_until_received(
+    publisher: &mut dyn Transport,
+    receiver: &mut dyn Transport,
+    channel: &str,
+    payload: &[u8],
+    timeout: Duration,
+) -> OwnedMessage {
+    let deadline = Instant::now() + timeout;
+    while Instant::now() < deadline {
+        let reached = publisher
+            .publish(channel, payload)
+            .unwrap_or_else(|e| panic!("publish failed: {e}"));
+        let wait = if reached > 0 {
+            PATIENCE
+        } else {
+            Duration::from_millis(20)
+        };
+        if let Some(message) = receive(receiver, wait) {
+            return message;
+        }
+        assert!(
+            reached == 0,
+            "a publish reached a subscriber but nothing arrived in {wait:?}"
+        );
+    }
+    panic!("nothing published on {channel} arrived within {timeout:?}");
+}
+
+/// How long a test waits for something that should arrive at once.
+pub const PATIENCE: Duration = Duration::from_secs(5);
+/// How long a test waits to be sure that something does not arrive.
+pub const SILENCE: Duration = Duration::from_millis(200);

@@ -1,0 +1,399 @@
+//! The transport contract, written once and run on every backend (`shm::`, `local::`, `redis::`).
+
+use std::time::Duration;
+
+use seam_tests::{PATIENCE, SILENCE, TestContext, publish_until_received, receive};
+use seam_transport::{Backend, ChannelError, PublishError, SubscribeError};
+
+macro_rules! conformance {
+    ($($test:ident),* $(,)?) => {
+        mod shm { $( #[test] fn $test() {
+            if let Some(ctx) = super::TestContext::new(super::Backend::Shm) { super::$test(&ctx) }
+        } )* }
+        mod local { $( #[test] fn $test() {
+            if let Some(ctx) = super::TestContext::new(super::Backend::Local) { super::$test(&ctx) }
+        } )* }
+        mod redis { $( #[test] fn $test() {
+            if let Some(ctx) = super::TestContext::new(super::Backend::Redis) { super::$test(&ctx) }
+        } )* }
+    };
+}
+
+conformance!(
+    round_trip,
+    receiver_counts,
+    unsubscribe_stops_delivery,
+    pattern_subscriptions,
+    per_publisher_order,
+    payload_sizes_up_to_max,
+    many_channels,
+    several_publishers_one_channel,
+    overflow_is_counted_not_blocking,
+    bad_input_rejected,
+    writer_errors,
+    receive_waits_without_spinning,
+    wakes_on_publish_from_another_thread,
+);
+
+fn round_trip(ctx: &TestContext) {
+    let (mut publisher, mut subscriber) = (ctx.open(), ctx.open());
+    let channel = ctx.channel("round_trip");
+    subscriber.subscribe(&channel).expect("subscribe");
+    assert_eq!(publisher.publish(&channel, b"hello").expect("publish"), 1);
+    let message = receive(subscriber.as_mut(), PATIENCE).expect("the message arrives");
+    assert_eq!(message.channel, channel);
+    assert_eq!(message.pattern, None);
+    assert_eq!(message.payload, b"hello");
+    assert!(
+        subscriber.try_receive().expect("receive").is_none(),
+        "delivered once"
+    );
+    assert_eq!(publisher.stats().published, 1);
+    assert_eq!(subscriber.stats().received, 1);
+}
+
+fn receiver_counts(ctx: &TestContext) {
+    let mut publisher = ctx.open();
+    let channel = ctx.channel("counts");
+    assert_eq!(publisher.publish(&channel, b"x").expect("publish"), 0);
+    let mut subscribers: Vec<_> = (0..3).map(|_| ctx.open()).collect();
+    for subscriber in &mut subscribers {
+        subscriber.subscribe(&channel).expect("subscribe");
+    }
+    assert_eq!(publisher.publish(&channel, b"y").expect("publish"), 3);
+    for subscriber in &mut subscribers {
+        let message = receive(subscriber.as_mut(), PATIENCE).expect("each subscriber receives");
+        assert_eq!(message.payload, b"y");
+    }
+}
+
+fn unsubscribe_stops_delivery(ctx: &TestContext) {
+    let (mut publisher, mut subscriber) = (ctx.open(), ctx.open());
+    let channel = ctx.channel("unsub");
+    subscriber.subscribe(&channel).expect("subscribe");
+    assert_eq!(publisher.publish(&channel, b"1").expect("publish"), 1);
+    assert!(receive(subscriber.as_mut(), PATIENCE).is_some());
+    subscriber.unsubscribe(&channel).expect("unsubscribe");
+    assert_eq!(publisher.publish(&channel, b"2").expect("publish"), 0);
+    assert_eq!(receive(subscriber.as_mut(), SILENCE), None);
+}
+
+fn pattern_subscriptions(ctx: &TestContext) {
+    let (mut publisher, mut subscriber) = (ctx.open(), ctx.open());
+    let pattern = ctx.channel("events:*");
+    subscriber.psubscribe(&pattern).expect("psubscribe");
+    for name in ["events:a", "events:b"] {
+        let channel = ctx.channel(name);
+        let message = publish_until_received(
+            publisher.as_mut(),
+            subscriber.as_mut(),
+            &channel,
+            b"p",
+            PATIENCE,
+        );
+        assert_eq!(message.channel, channel);
+        assert_eq!(message.pattern.as_deref(), Some(pattern.as_str()));
+        assert_eq!(message.payload, b"p");
+    }
+    // A channel the pattern does not match never arrives.
+    let other = ctx.channel("replication:a");
+    assert_eq!(publisher.publish(&other, b"no").expect("publish"), 0);
+    assert_eq!(receive(subscriber.as_mut(), SILENCE), None);
+
+    subscriber.punsubscribe(&pattern).expect("punsubscribe");
+    assert_eq!(
+        publisher
+            .publish(&ctx.channel("events:a"), b"late")
+            .expect("publish"),
+        0
+    );
+    assert_eq!(receive(subscriber.as_mut(), SILENCE), None);
+}
+
+fn per_publisher_order(ctx: &TestContext) {
+    let (mut publisher, mut subscriber) = (ctx.open(), ctx.open());
+    let channel = ctx.channel("order");
+    subscriber.subscribe(&channel).expect("subscribe");
+    let mut expected = 0u32;
+    for batch in 0..250u32 {
+        // Batches smaller than any receive buffer: order, not overflow, is under test.
+        for i in 0..8 {
+            publisher
+                .publish(&channel, &(batch * 8 + i).to_le_bytes())
+                .expect("publish");
+        }
+        for _ in 0..8 {
+            let message = receive(subscriber.as_mut(), PATIENCE).expect("arrives");
+            let value = u32::from_le_bytes(message.payload.try_into().expect("4 bytes"));
+            assert_eq!(value, expected, "messages arrive in publish order");
+            expected += 1;
+        }
+    }
+    assert_eq!(subscriber.stats().overflow_drops, 0);
+}
+
+fn payload_sizes_up_to_max(ctx: &TestContext) {
+    let (mut publisher, mut subscriber) = (ctx.open(), ctx.open());
+    let channel = ctx.channel("sizes");
+    subscriber.subscribe(&channel).expect("subscribe");
+    let max = publisher.max_payload();
+    assert_eq!(max, 1 << 20, "the default maximum is 1 MiB");
+    for size in [0, 1, 63, 64, 4095, 4096, 65_536, 300_000, max] {
+        let payload: Vec<u8> = (0..size).map(|i| (i * 31 % 251) as u8).collect();
+        assert_eq!(
+            publisher.publish(&channel, &payload).expect("publish"),
+            1,
+            "size {size}"
+        );
+        let message = receive(subscriber.as_mut(), PATIENCE).expect("arrives");
+        assert_eq!(message.payload.len(), size);
+        assert!(message.payload == payload, "payload of {size} bytes intact");
+    }
+    assert_eq!(
+        publisher.publish(&channel, &vec![0; max + 1]),
+        Err(PublishError::PayloadTooLarge { len: max + 1, max })
+    );
+}
+
+fn many_channels(ctx: &TestContext) {
+    let (mut publisher, mut subscriber) = (ctx.open(), ctx.open());
+    let channels: Vec<String> = (0..256)
+        .map(|i| ctx.channel(&format!("many:{i}")))
+        .collect();
+    for channel in &channels {
+        subscriber.subscribe(channel).expect("subscribe");
+    }
+    for (i, channel) in channels.iter().enumerate() {
+        assert_eq!(
+            publisher
+                .publish(channel, &(i as u32).to_le_bytes())
+                .expect("publish"),
+            1
+        );
+    }
+    let mut seen = vec![false; channels.len()];
+    for _ in 0..channels.len() {
+        let message = receive(subscriber.as_mut(), PATIENCE).expect("arrives");
+        let i = u32::from_le_bytes(message.payload.try_into().expect("4 bytes")) as usize;
+        assert_eq!(message.channel, channels[i], "payload matches its channel");
+        assert!(!seen[i], "channel {i} delivered once");
+        seen[i] = true;
+    }
+    assert!(seen.iter().all(|s| *s));
+}
+
+fn several_publishers_one_channel(ctx: &TestContext) {
+    let mut subscriber = ctx.open();
+    let channel = ctx.channel("fan_in");
+    subscriber.subscribe(&channel).expect("subscribe");
+    let mut publishers: Vec<_> = (0..4).map(|_| ctx.open()).collect();
+    for round in 0..3u8 {
+        for (p, publisher) in publishers.iter_mut().enumerate() {
+            assert_eq!(
+                publisher
+                    .publish(&channel, &[p as u8, round])
+                    .expect("publish"),
+                1
+            );
+        }
+    }
+    let mut next_round = [0u8; 4];
+    for _ in 0..12 {
+        let message = receive(subscriber.as_mut(), PATIENCE).expect("arrives");
+        let (p, round) = (message.payload[0] as usize, message.payload[1]);
+        assert_eq!(
+            round, next_round[p],
+            "each publisher's messages stay in order"
+        );
+        next_round[p] += 1;
+    }
+    assert_eq!(next_round, [3; 4]);
+}
+
+fn overflow_is_counted_not_blocking(ctx: &TestContext) {
+    let mut publisher = ctx.open_with("buffer=4");
+    let mut subscriber = ctx.open_with("buffer=4");
+    let channel = ctx.channel("overflow");
+    subscriber.subscribe(&channel).expect("subscribe");
+    // The first message sets the receiver's baseline for this publisher.
+    publisher.publish(&channel, b"first").expect("publish");
+    assert!(receive(subscriber.as_mut(), PATIENCE).is_some());
+    const FLOOD: u64 = 100;
+    for i in 0..FLOOD {
+        publisher
+            .publish(&channel, &i.to_le_bytes())
+            .expect("a full receiver never blocks");
+    }
+    // The last message published must arrive: newest data wins.
+    let mut last = None;
+    let mut received = 0;
+    while let Some(message) = receive(subscriber.as_mut(), SILENCE) {
+        last = Some(u64::from_le_bytes(
+            message.payload.try_into().expect("8 bytes"),
+        ));
+        received += 1;
+    }
+    let stats = subscriber.stats();
+    assert_eq!(last, Some(FLOOD - 1), "the newest message survives");
+    assert_eq!(
+        received + stats.overflow_drops,
+        FLOOD,
+        "every message is received or counted"
+    );
+    if ctx.backend() != Backend::Redis {
+        assert!(
+            received <= 4,
+            "a buffer of 4 holds at most 4, got {received}"
+        );
+        assert!(stats.overflow_drops >= FLOOD - 4);
+    }
+}
+
+fn bad_input_rejected(ctx: &TestContext) {
+    let mut transport = ctx.open();
+    let long = "x".repeat(256);
+    assert_eq!(
+        transport.publish("", b"x"),
+        Err(PublishError::Channel(ChannelError::Empty))
+    );
+    assert_eq!(
+        transport.publish(&long, b"x"),
+        Err(PublishError::Channel(ChannelError::TooLong {
+            len: 256,
+            max: 255
+        }))
+    );
+    assert_eq!(
+        transport.publish("two words", b"x"),
+        Err(PublishError::Channel(ChannelError::NotPrintableAscii {
+            position: 3
+        }))
+    );
+    assert_eq!(
+        transport.subscribe("grüße"),
+        Err(SubscribeError::Channel(ChannelError::NotPrintableAscii {
+            position: 2
+        }))
+    );
+    assert_eq!(
+        transport.psubscribe(""),
+        Err(SubscribeError::Channel(ChannelError::Empty))
+    );
+    let error = transport.publish("", b"x").expect_err("empty channel");
+    assert!(
+        error.to_string().contains("empty"),
+        "message says what is wrong: {error}"
+    );
+    // The transport still works after rejecting bad input.
+    let channel = ctx.channel("after_bad_input");
+    transport.subscribe(&channel).expect("subscribe");
+    assert_eq!(transport.publish(&channel, b"ok").expect("publish"), 1);
+    assert_eq!(
+        receive(transport.as_mut(), PATIENCE)
+            .expect("arrives")
+            .payload,
+        b"ok"
+    );
+}
+
+fn writer_errors(ctx: &TestContext) {
+    let (mut publisher, mut subscriber) = (ctx.open(), ctx.open());
+    let channel = ctx.channel("writer");
+    subscriber.subscribe(&channel).expect("subscribe");
+    assert_eq!(
+        publisher.publish_with(&channel, 16, &mut |_| None),
+        Err(PublishError::WriterAborted)
+    );
+    assert_eq!(
+        publisher.publish_with(&channel, 16, &mut |_| Some(17)),
+        Err(PublishError::WriterOverrun {
+            written: 17,
+            capacity: 16
+        })
+    );
+    // Only what the writer reports is sent, and nothing of the failed attempts.
+    let reached = publisher
+        .publish_with(&channel, 64, &mut |buffer| {
+            assert!(buffer.iter().all(|b| *b == 0), "the buffer comes zeroed");
+            buffer[..3].copy_from_slice(b"abc");
+            Some(3)
+        })
+        .expect("publish");
+    assert_eq!(reached, 1);
+    assert_eq!(
+        receive(subscriber.as_mut(), PATIENCE)
+            .expect("arrives")
+            .payload,
+        b"abc"
+    );
+    assert_eq!(receive(subscriber.as_mut(), SILENCE), None);
+    assert_eq!(
+        subscriber.stats().overflow_drops,
+        0,
+        "aborted publishes leave no gap"
+    );
+}
+
+/// CPU time of this thread so far, from /proc (user + system, in clock ticks of 10 ms).
+fn cpu_ticks() -> u64 {
+    let stat = std::fs::read_to_string("/proc/thread-self/stat").expect("/proc/thread-self/stat");
+    let after_name = &stat[stat.rfind(')').expect("comm field") + 2..];
+    let fields: Vec<&str> = after_name.split(' ').collect();
+    let number = |i: usize| fields[i].parse::<u64>().expect("number");
+    number(11) + number(12)
+}
+
+fn receive_waits_without_spinning(ctx: &TestContext) {
+    let mut subscriber = ctx.open();
+    subscriber
+        .subscribe(&ctx.channel("quiet"))
+        .expect("subscribe");
+    let wall = std::time::Instant::now();
+    let before = cpu_ticks();
+    assert_eq!(
+        receive(subscriber.as_mut(), Duration::from_millis(600)),
+        None
+    );
+    let (ticks, elapsed) = (cpu_ticks() - before, wall.elapsed());
+    assert!(
+        elapsed >= Duration::from_millis(600),
+        "waited the whole timeout"
+    );
+    // A spinning wait would burn ~60 ticks of this thread.
+    assert!(
+        ticks < 30,
+        "a 600 ms wait used {ticks} ticks of CPU: it spins"
+    );
+}
+
+fn wakes_on_publish_from_another_thread(ctx: &TestContext) {
+    let mut subscriber = ctx.open();
+    let channel = ctx.channel("wake");
+    subscriber.subscribe(&channel).expect("subscribe");
+    let url = ctx.url();
+    let (go_tx, go_rx) = std::sync::mpsc::channel::<()>();
+    let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
+    let thread_channel = channel.clone();
+    let publisher = std::thread::spawn(move || {
+        let mut publisher = seam_transport::open(&url).expect("open");
+        go_rx.recv().expect("go");
+        // Give the subscriber time to fall asleep, so the wake-up path is what is tested.
+        std::thread::sleep(Duration::from_millis(50));
+        let reached = publisher
+            .publish(&thread_channel, b"wake up")
+            .expect("publish");
+        // On shared memory a publisher's unread samples go with it; stay until received.
+        done_rx.recv_timeout(Duration::from_secs(20)).ok();
+        reached
+    });
+    go_tx.send(()).expect("go");
+    let started = std::time::Instant::now();
+    let message = receive(subscriber.as_mut(), Duration::from_secs(10)).expect("woken");
+    done_tx.send(()).expect("done");
+    assert_eq!(message.payload, b"wake up");
+    assert!(
+        started.elapsed() < Duration::from_secs(5),
+        "woken by the publish, not the timeout"
+    );
+    assert_eq!(publisher.join().expect("publisher thread"), 1);
+}

@@ -1,0 +1,196 @@
+//! The envelope every seam message travels in, on every backend.
+//!
+//! It names the publishing transport, numbers the publisher's messages per channel and gives the
+//! payload length. Gaps in the numbering are how a receiver counts messages it lost to a full
+//! buffer; bytes that do not start with a valid envelope are counted as malformed and skipped.
+//! On shared memory the envelope is the iceoryx2 user header (the payload stays the caller's
+//! bytes, zero copy); on Redis it is the first [`Envelope::WIRE_LEN`] bytes of the message.
+
+use std::collections::HashMap;
+use std::hash::{BuildHasher, Hash, Hasher};
+
+use iceoryx2::prelude::ZeroCopySend;
+
+/// The envelope format version; a receiver drops envelopes of another version as malformed.
+pub const ENVELOPE_VERSION: u32 = 1;
+const MAGIC: u32 = u32::from_le_bytes(*b"seam");
+
+/// Header of one message.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("seam::Envelope")]
+pub struct Envelope {
+    /// Always `b"seam"`; tells a seam message from foreign bytes.
+    pub magic: u32,
+    /// [`ENVELOPE_VERSION`] of the publisher.
+    pub version: u32,
+    /// Random identity of the publishing transport instance.
+    pub publisher: u64,
+    /// 1 for the publisher's first message on this channel, then +1 per message.
+    pub seq: u64,
+    /// Payload length in bytes (on shm the loaned slice may be longer).
+    pub len: u64,
+}
+
+impl Envelope {
+    /// Bytes the envelope takes on a byte-stream backend.
+    pub const WIRE_LEN: usize = 32;
+
+    /// An envelope for message `seq` of `publisher` with `len` payload bytes.
+    pub fn new(publisher: u64, seq: u64, len: usize) -> Self {
+        Self {
+            magic: MAGIC,
+            version: ENVELOPE_VERSION,
+            publisher,
+            seq,
+            len: len as u64,
+        }
+    }
+
+    /// Whether this header came from a seam publisher of this version.
+    pub fn is_valid(&self) -> bool {
+        self.magic == MAGIC && self.version == ENVELOPE_VERSION && self.seq != 0
+    }
+
+    /// Writes the wire form into the first [`Self::WIRE_LEN`] bytes of `out`.
+    pub fn write_to(&self, out: &mut [u8; Self::WIRE_LEN]) {
+        out[0..4].copy_from_slice(&self.magic.to_le_bytes());
+        out[4..8].copy_from_slice(&self.version.to_le_bytes());
+        out[8..16].copy_from_slice(&self.publisher.to_le_bytes());
+        out[16..24].copy_from_slice(&self.seq.to_le_bytes());
+        out[24..32].copy_from_slice(&self.len.to_le_bytes());
+    }
+
+    /// Splits a wire message into its valid envelope and payload, or `None` if it is not one.
+    pub fn split(bytes: &[u8]) -> Option<(Self, &[u8])> {
+        let (head, payload) = bytes.split_at_checked(Self::WIRE_LEN)?;
+        let word = |at: usize| u64::from_le_bytes(head[at..at + 8].try_into().unwrap_or_default());
+        let envelope = Self {
+            magic: u32::from_le_bytes(head[0..4].try_into().unwrap_or_default()),
+            version: u32::from_le_bytes(head[4..8].try_into().unwrap_or_default()),
+            publisher: word(8),
+            seq: word(16),
+            len: word(24),
+        };
+        (envelope.is_valid() && envelope.len == payload.len() as u64).then_some((envelope, payload))
+    }
+}
+
+/// A random identity for a publishing transport, from the OS-seeded keys of std's hasher.
+pub(crate) fn random_publisher_id() -> u64 {
+    let mut hasher = std::collections::hash_map::RandomState::new().build_hasher();
+    std::process::id().hash(&mut hasher);
+    std::time::Instant::now().hash(&mut hasher);
+    hasher.finish()
+}
+
+/// Numbers outgoing messages per channel.
+#[derive(Debug, Default)]
+pub(crate) struct SeqCounter {
+    next: HashMap<String, u64>,
+}
+
+impl SeqCounter {
+    /// The number for the next message on `channel`, starting at 1.
+    pub(crate) fn next(&mut self, channel: &str) -> u64 {
+        // Look up by &str first so the steady state does not allocate.
+        if let Some(seq) = self.next.get_mut(channel) {
+            *seq += 1;
+            return *seq;
+        }
+        self.next.insert(channel.to_owned(), 1);
+        1
+    }
+}
+
+/// Finds gaps in the numbering of each publisher on each channel.
+#[derive(Debug, Default)]
+pub(crate) struct GapDetector {
+    last: HashMap<(u64, u64), u64>,
+    hasher: std::collections::hash_map::RandomState,
+}
+
+impl GapDetector {
+    /// Records `envelope` received on `channel`; returns how many messages went missing just
+    /// before it. The first message from a publisher on a channel sets the baseline.
+    pub(crate) fn observe(&mut self, channel: &str, envelope: &Envelope) -> u64 {
+        let key = (envelope.publisher, self.hasher.hash_one(channel));
+        match self.last.insert(key, envelope.seq) {
+            Some(last) if envelope.seq > last => envelope.seq - last - 1,
+            _ => 0,
+        }
+    }
+
+    /// Forgets the numbering of `channel` (after an unsubscribe, a later gap is not a drop).
+    pub(crate) fn forget_channel(&mut self, channel: &str) {
+        let hash = self.hasher.hash_one(channel);
+        self.last.retain(|(_, c), _| *c != hash);
+    }
+}
+
+/// The receiving side's bookkeeping: validity, gaps and the counters they feed.
+#[derive(Debug, Default)]
+pub(crate) struct Intake {
+    gaps: GapDetector,
+    /// Counters; `published` is left to the publishing side.
+    pub(crate) stats: crate::Stats,
+}
+
+impl Intake {
+    /// Counts a valid message received on `channel`, with the messages lost before it.
+    pub(crate) fn accept(&mut self, channel: &str, envelope: &Envelope) {
+        self.stats.overflow_drops += self.gaps.observe(channel, envelope);
+        self.stats.received += 1;
+    }
+
+    /// Counts bytes that were not a valid seam message.
+    pub(crate) fn malformed(&mut self) {
+        self.stats.malformed_drops += 1;
+    }
+
+    /// Forgets the numbering of `channel` after an unsubscribe.
+    pub(crate) fn forget_channel(&mut self, channel: &str) {
+        self.gaps.forget_channel(channel);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wire_round_trip() {
+        let envelope = Envelope::new(7, 3, 5);
+        let mut bytes = [0u8; Envelope::WIRE_LEN + 5];
+        let head: &mut [u8; Envelope::WIRE_LEN] = (&mut bytes[..Envelope::WIRE_LEN])
+            .try_into()
+            .expect("exact length");
+        envelope.write_to(head);
+        bytes[Envelope::WIRE_LEN..].copy_from_slice(b"hello");
+        assert_eq!(Envelope::split(&bytes), Some((envelope, &b"hello"[..])));
+    }
+
+    #[test]
+    fn foreign_bytes_are_not_envelopes() {
+        assert_eq!(Envelope::split(b"hello"), None);
+        assert_eq!(Envelope::split(&[0u8; 64]), None);
+        let mut bytes = [0u8; Envelope::WIRE_LEN + 4];
+        let head: &mut [u8; Envelope::WIRE_LEN] = (&mut bytes[..Envelope::WIRE_LEN])
+            .try_into()
+            .expect("exact length");
+        Envelope::new(1, 1, 5).write_to(head);
+        assert_eq!(Envelope::split(&bytes), None, "length must match");
+    }
+
+    #[test]
+    fn gaps_are_counted_per_publisher_and_channel() {
+        let mut gaps = GapDetector::default();
+        assert_eq!(gaps.observe("a", &Envelope::new(1, 1, 0)), 0);
+        assert_eq!(gaps.observe("a", &Envelope::new(1, 2, 0)), 0);
+        assert_eq!(gaps.observe("a", &Envelope::new(1, 5, 0)), 2);
+        assert_eq!(gaps.observe("b", &Envelope::new(1, 9, 0)), 0, "baseline");
+        assert_eq!(gaps.observe("a", &Envelope::new(2, 4, 0)), 0, "baseline");
+        gaps.forget_channel("a");
+        assert_eq!(gaps.observe("a", &Envelope::new(1, 9, 0)), 0);
+    }
+}

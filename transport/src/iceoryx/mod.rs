@@ -1,0 +1,376 @@
+//! The iceoryx2 backends: `shm` (`ipc::Service`, across processes) and `local`
+//! (`local::Service`, one process). One generic implementation serves both.
+//!
+//! Each channel is an iceoryx2 publish-subscribe service of `[u8]` with the seam [`Envelope`] as
+//! user header, paired with an event service of the same name. A publisher writes straight into
+//! its loaned sample, sends it and notifies the event service; iceoryx2 sends a wake-up datagram
+//! only when a listener has consumed the previous one, so publishing to a busy-polling receiver
+//! costs an atomic, not a syscall. A receiver polls its subscribers round-robin and, when told to
+//! wait, sleeps on its listeners in a WaitSet.
+//!
+//! Pattern subscriptions are emulated: the backend lists the services under its prefix (at
+//! `psubscribe` and every `discovery_interval` while receiving) and subscribes to each new match.
+//! A channel therefore reaches a pattern subscriber only after discovery has seen it, and
+//! `publish` counts a pattern subscriber once it has subscribed. A channel matched both directly
+//! and by patterns is received once (Redis would deliver it once per subscription).
+
+mod config;
+mod ports;
+
+pub use config::IceoryxConfig;
+
+use std::collections::{HashMap, HashSet};
+use std::time::{Duration, Instant};
+
+use iceoryx2::port::listener::Listener;
+use iceoryx2::prelude::*;
+use iceoryx2::service::Service;
+use iceoryx2::service::static_config::messaging_pattern::MessagingPattern as StaticPattern;
+
+use crate::envelope::{Intake, random_publisher_id};
+use crate::error::{OpenError, PublishError, ReceiveError, SubscribeError};
+use crate::pattern::glob_match;
+use crate::{Backend, Message, Stats, Transport, validate_channel};
+use ports::{Inlet, Outlet, PortError};
+
+/// A transport over iceoryx2 services of type `S`.
+pub struct IceoryxTransport<S: Service> {
+    node: Node<S>,
+    config: IceoryxConfig,
+    backend: Backend,
+    publisher_id: u64,
+    outlets: HashMap<String, Outlet<S>>,
+    inlets: Vec<Inlet<S>>,
+    patterns: Vec<String>,
+    /// Channels a pattern matched but whose service seam cannot use (a foreign payload type).
+    unusable: HashSet<String>,
+    next_discovery: Instant,
+    cursor: usize,
+    /// The sample behind the last returned message: (index into `inlets`, sample).
+    current: Option<(usize, ports::InSample<S>)>,
+    intake: Intake,
+    published: u64,
+}
+
+/// Shared memory across the processes of one host.
+pub type ShmTransport = IceoryxTransport<ipc::Service>;
+/// iceoryx2 within one process.
+pub type LocalTransport = IceoryxTransport<local::Service>;
+
+// `Listener<S>: SynchronousMultiplexing` lets a WaitSet sleep on the listeners; `ipc::Service`
+// and `local::Service` both meet it.
+impl<S: Service> IceoryxTransport<S>
+where
+    Listener<S>: SynchronousMultiplexing,
+{
+    /// Starts an iceoryx2 node with `config` and reclaims what dead nodes left behind.
+    pub fn open(backend: Backend, config: IceoryxConfig) -> Result<Self, OpenError> {
+        // iceoryx2 logs every failure it returns; seam reports them as typed errors instead.
+        // IOX2_LOG_LEVEL still turns its log back on for debugging.
+        set_log_level_from_env_or(LogLevel::Fatal);
+        let mut iox_config = iceoryx2::config::Config::default();
+        iox_config.global.prefix =
+            FileName::new(config.prefix.as_bytes()).map_err(|e| OpenError::SharedMemory {
+                what: "prefix",
+                reason: format!("{e:?}"),
+            })?;
+        let node = NodeBuilder::new()
+            .config(&iox_config)
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<S>()
+            .map_err(|e| OpenError::SharedMemory {
+                what: "node",
+                reason: e.to_string(),
+            })?;
+        // Pods that crashed leave shared memory and service registrations behind.
+        node.try_cleanup_dead_nodes();
+        Ok(Self {
+            node,
+            config,
+            backend,
+            publisher_id: random_publisher_id(),
+            outlets: HashMap::new(),
+            inlets: Vec::new(),
+            patterns: Vec::new(),
+            unusable: HashSet::new(),
+            next_discovery: Instant::now(),
+            cursor: 0,
+            current: None,
+            intake: Intake::default(),
+            published: 0,
+        })
+    }
+
+    /// The settings this transport was opened with.
+    pub fn config(&self) -> &IceoryxConfig {
+        &self.config
+    }
+
+    fn outlet(&mut self, channel: &str) -> Result<&mut Outlet<S>, PublishError> {
+        if !self.outlets.contains_key(channel) {
+            let outlet =
+                Outlet::create(&self.node, &self.config, channel).map_err(|e| match e {
+                    PortError::Incompatible(reason) => PublishError::IncompatibleService {
+                        channel: channel.to_owned(),
+                        reason,
+                    },
+                    PortError::Unavailable(reason) => PublishError::PortUnavailable {
+                        channel: channel.to_owned(),
+                        reason,
+                    },
+                })?;
+            self.outlets.insert(channel.to_owned(), outlet);
+        }
+        Ok(self
+            .outlets
+            .get_mut(channel)
+            .expect("the outlet was inserted above"))
+    }
+
+    fn inlet_index(&self, channel: &str) -> Option<usize> {
+        self.inlets
+            .iter()
+            .position(|inlet| inlet.channel == channel)
+    }
+
+    fn add_inlet(&mut self, channel: &str, pattern: Option<&str>) -> Result<(), SubscribeError> {
+        let inlet =
+            Inlet::create(&self.node, &self.config, channel, pattern).map_err(|e| match e {
+                PortError::Incompatible(reason) => SubscribeError::IncompatibleService {
+                    channel: channel.to_owned(),
+                    reason,
+                },
+                PortError::Unavailable(reason) => SubscribeError::PortUnavailable {
+                    channel: channel.to_owned(),
+                    reason,
+                },
+            })?;
+        self.inlets.push(inlet);
+        Ok(())
+    }
+
+    fn remove_inlet(&mut self, index: usize) {
+        self.current = None;
+        let inlet = self.inlets.remove(index);
+        self.intake.forget_channel(&inlet.channel);
+    }
+
+    /// Subscribes to every existing channel that matches a pattern and is not yet received.
+    fn discover(&mut self) {
+        self.next_discovery = Instant::now() + self.config.discovery_interval;
+        if self.patterns.is_empty() {
+            return;
+        }
+        let mut found: Vec<(String, String)> = Vec::new();
+        let _listed = S::list(self.node.config(), |details| {
+            let name = details.static_details.name().as_str();
+            if matches!(
+                details.static_details.messaging_pattern(),
+                StaticPattern::PublishSubscribe(_)
+            ) && !self.unusable.contains(name)
+                && !self.inlets.iter().any(|inlet| inlet.channel == name)
+                && let Some(pattern) = self.patterns.iter().find(|p| glob_match(p, name))
+            {
+                found.push((name.to_owned(), pattern.clone()));
+            }
+            CallbackProgression::Continue
+        });
+        for (channel, pattern) in found {
+            if self.add_inlet(&channel, Some(&pattern)).is_err() {
+                // A service of another payload type (not a seam channel) or one already full:
+                // remember it so discovery does not retry it every interval.
+                self.unusable.insert(channel);
+            }
+        }
+    }
+
+    /// Takes the next valid sample into `self.current`; returns whether there was one.
+    fn advance(&mut self) -> Result<bool, ReceiveError> {
+        self.current = None;
+        if !self.patterns.is_empty() && Instant::now() >= self.next_discovery {
+            self.discover();
+        }
+        let count = self.inlets.len();
+        for k in 0..count {
+            let index = (self.cursor + k) % count;
+            loop {
+                let inlet = &self.inlets[index];
+                let sample = match inlet.subscriber.receive() {
+                    Ok(Some(sample)) => sample,
+                    Ok(None) => break,
+                    Err(e) => {
+                        return Err(ReceiveError::SharedMemory {
+                            channel: inlet.channel.clone(),
+                            reason: e.to_string(),
+                        });
+                    }
+                };
+                let envelope = *sample.user_header();
+                if !envelope.is_valid() || envelope.len > sample.payload().len() as u64 {
+                    self.intake.malformed();
+                    continue;
+                }
+                self.intake.accept(&inlet.channel, &envelope);
+                self.cursor = index + 1;
+                self.current = Some((index, sample));
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    fn current_message(&self) -> Option<Message<'_>> {
+        let (index, sample) = self.current.as_ref()?;
+        let inlet = &self.inlets[*index];
+        let len = sample.user_header().len as usize;
+        Some(Message {
+            channel: &inlet.channel,
+            pattern: if inlet.direct {
+                None
+            } else {
+                inlet.pattern.as_deref()
+            },
+            payload: &sample.payload()[..len],
+        })
+    }
+
+    /// Sleeps until a listener is notified or `timeout` passes.
+    fn wait_for_wakeup(&mut self, timeout: Duration) -> Result<(), ReceiveError> {
+        let shm_error = |reason: String| ReceiveError::SharedMemory {
+            channel: String::new(),
+            reason,
+        };
+        if self.inlets.is_empty() {
+            // Nothing can arrive; only discovery (driven by the caller's loop) can change that.
+            std::thread::sleep(timeout);
+            return Ok(());
+        }
+        {
+            let waitset = WaitSetBuilder::new()
+                .signal_handling_mode(SignalHandlingMode::Disabled)
+                .create::<S>()
+                .map_err(|e| shm_error(e.to_string()))?;
+            let guards = self
+                .inlets
+                .iter()
+                .map(|inlet| waitset.attach_notification(&inlet.listener))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| shm_error(e.to_string()))?;
+            waitset
+                .wait_and_process_once_with_timeout(|_| CallbackProgression::Stop, timeout)
+                .map_err(|e| shm_error(e.to_string()))?;
+            drop(guards);
+        }
+        // Consume the wake-ups so the next notify sends a datagram again; samples are checked
+        // after this, so none published meanwhile is missed.
+        for inlet in &self.inlets {
+            let _ = inlet.listener.try_wait(|_| {});
+        }
+        Ok(())
+    }
+}
+
+impl<S: Service> Transport for IceoryxTransport<S>
+where
+    Listener<S>: SynchronousMultiplexing,
+{
+    fn backend(&self) -> Backend {
+        self.backend
+    }
+
+    fn publish_with(
+        &mut self,
+        channel: &str,
+        capacity: usize,
+        write: &mut dyn FnMut(&mut [u8]) -> Option<usize>,
+    ) -> Result<usize, PublishError> {
+        validate_channel(channel)?;
+        let max = self.config.max_payload;
+        if capacity > max {
+            return Err(PublishError::PayloadTooLarge { len: capacity, max });
+        }
+        let publisher_id = self.publisher_id;
+        let outlet = self.outlet(channel)?;
+        let reached = outlet.send(publisher_id, capacity, write)?;
+        self.published += 1;
+        Ok(reached)
+    }
+
+    fn subscribe(&mut self, channel: &str) -> Result<(), SubscribeError> {
+        validate_channel(channel)?;
+        match self.inlet_index(channel) {
+            Some(index) => self.inlets[index].direct = true,
+            None => self.add_inlet(channel, None)?,
+        }
+        Ok(())
+    }
+
+    fn unsubscribe(&mut self, channel: &str) -> Result<(), SubscribeError> {
+        validate_channel(channel)?;
+        if let Some(index) = self.inlet_index(channel) {
+            if self.inlets[index].pattern.is_some() {
+                self.inlets[index].direct = false;
+            } else {
+                self.remove_inlet(index);
+            }
+        }
+        Ok(())
+    }
+
+    fn psubscribe(&mut self, pattern: &str) -> Result<(), SubscribeError> {
+        validate_channel(pattern)?;
+        if !self.patterns.iter().any(|p| p == pattern) {
+            self.patterns.push(pattern.to_owned());
+        }
+        self.discover();
+        Ok(())
+    }
+
+    fn punsubscribe(&mut self, pattern: &str) -> Result<(), SubscribeError> {
+        validate_channel(pattern)?;
+        self.patterns.retain(|p| p != pattern);
+        let mut index = self.inlets.len();
+        while index > 0 {
+            index -= 1;
+            if self.inlets[index].pattern.as_deref() == Some(pattern) {
+                if self.inlets[index].direct {
+                    self.inlets[index].pattern = None;
+                } else {
+                    self.remove_inlet(index);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn try_receive(&mut self) -> Result<Option<Message<'_>>, ReceiveError> {
+        self.advance()?;
+        Ok(self.current_message())
+    }
+
+    fn receive_timeout(&mut self, timeout: Duration) -> Result<Option<Message<'_>>, ReceiveError> {
+        let deadline = Instant::now() + timeout;
+        while !self.advance()? {
+            let now = Instant::now();
+            if now >= deadline {
+                return Ok(None);
+            }
+            let mut wait = deadline - now;
+            if !self.patterns.is_empty() {
+                wait = wait.min(self.next_discovery.saturating_duration_since(now));
+            }
+            self.wait_for_wakeup(wait)?;
+        }
+        Ok(self.current_message())
+    }
+
+    fn stats(&self) -> Stats {
+        let mut stats = self.intake.stats;
+        stats.published = self.published;
+        stats
+    }
+
+    fn max_payload(&self) -> usize {
+        self.config.max_payload
+    }
+}

@@ -1,0 +1,81 @@
+//! seam-transport — publish-subscribe in Redis's vocabulary, on iceoryx2 shared memory for
+//! cluster pods of one host, on iceoryx2 in-process for single-process runs, and on Redis for
+//! pods on different hosts.
+//!
+//! Everything above this crate talks to [`Transport`] only, and picks a backend at run time with
+//! a URL ([`open`]), so swapping shared memory for Redis changes no game code and the same op can
+//! be timed with and without a network in between.
+//!
+//! | URL | backend |
+//! |---|---|
+//! | `shm`, `shm?prefix=test42&buffer=64` | [`ShmTransport`]: iceoryx2 `ipc::Service`, across processes |
+//! | `local` | [`LocalTransport`]: iceoryx2 `local::Service`, one process |
+//! | `redis://[user:password@]host:port[/db]` | [`RedisTransport`] |
+//!
+//! Shared-memory settings are listed on [`IceoryxConfig`]; Redis settings on [`RedisConfig`].
+//!
+//! # Layout
+//!
+//! - [`transport`](Transport) — the trait and [`Backend`].
+//! - `channel` — the channel-name rule every backend enforces.
+//! - `pattern` — Redis glob matching, for backends that match patterns themselves.
+//! - `message` — [`Message`] (borrowed, zero copy) and [`OwnedMessage`].
+//! - `envelope` — the header every message carries: publisher, sequence, length.
+//! - `stats` — [`Stats`]: published, received, overflow and malformed drops.
+//! - `error` — one error type per operation.
+//! - `iceoryx` — the generic iceoryx2 backend behind `shm` and `local`.
+//! - `redis` — the Redis backend.
+
+mod channel;
+mod envelope;
+mod error;
+mod iceoryx;
+mod message;
+mod pattern;
+mod redis;
+mod stats;
+mod transport;
+
+pub use channel::{MAX_CHANNEL_LEN, validate_channel};
+pub use envelope::{ENVELOPE_VERSION, Envelope};
+pub use error::{ChannelError, OpenError, PublishError, ReceiveError, SubscribeError};
+pub use iceoryx::{IceoryxConfig, IceoryxTransport, LocalTransport, ShmTransport};
+pub use message::{Message, OwnedMessage};
+pub use pattern::glob_match;
+pub use redis::{RedisConfig, RedisTransport, redact_url};
+pub use stats::Stats;
+pub use transport::{Backend, Transport};
+
+/// Opens the transport a URL names: `shm[?settings]`, `local[?settings]` or `redis://…`.
+pub fn open(url: &str) -> Result<Box<dyn Transport>, OpenError> {
+    let url = url.trim();
+    if url.starts_with("redis://") || url.starts_with("redis+unix://") || url.starts_with("unix://")
+    {
+        return Ok(Box::new(RedisTransport::open(url)?));
+    }
+    let (scheme, query) = url.split_once('?').unwrap_or((url, ""));
+    let backend = match scheme {
+        "shm" => Backend::Shm,
+        "local" => Backend::Local,
+        _ => {
+            return Err(OpenError::InvalidUrl {
+                url: redact_url(url),
+                reason: format!("unknown backend {scheme:?}"),
+            });
+        }
+    };
+    let mut config = IceoryxConfig::default();
+    for pair in query.split('&').filter(|p| !p.is_empty()) {
+        let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
+        config
+            .set(key, value)
+            .map_err(|reason| OpenError::InvalidUrl {
+                url: url.to_owned(),
+                reason,
+            })?;
+    }
+    Ok(match backend {
+        Backend::Shm => Box::new(ShmTransport::open(backend, config)?),
+        _ => Box::new(LocalTransport::open(backend, config)?),
+    })
+}

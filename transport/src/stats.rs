@@ -1,0 +1,16 @@
+//! Counters every transport keeps.
+
+/// What a transport has done since it was opened. Drops are counted on the receiving side.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Messages published.
+    pub published: u64,
+    /// Messages handed to the caller by a receive.
+    pub received: u64,
+    /// Messages a publisher sent that never reached this receiver because its receive buffer was
+    /// full (found as gaps in the per-publisher sequence numbers, counted from the first message
+    /// received from each publisher on each channel).
+    pub overflow_drops: u64,
+    /// Messages that were not seam envelopes (foreign or corrupted bytes on a channel), skipped.
+    pub malformed_drops: u64,
+}

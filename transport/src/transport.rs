@@ -1,0 +1,95 @@
+//! The trait every backend implements.
+
+use std::time::Duration;
+
+use crate::error::{PublishError, ReceiveError, SubscribeError};
+use crate::{Message, Stats};
+
+/// Which backend a transport runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Backend {
+    /// iceoryx2 shared memory between processes of one host.
+    Shm,
+    /// iceoryx2 within one process.
+    Local,
+    /// A Redis server.
+    Redis,
+}
+
+impl Backend {
+    /// The URL scheme that selects this backend: `shm`, `local` or `redis`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Shm => "shm",
+            Backend::Local => "local",
+            Backend::Redis => "redis",
+        }
+    }
+}
+
+impl std::fmt::Display for Backend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Publish-subscribe in Redis's vocabulary.
+///
+/// Delivery is best-effort and at-most-once, first-in first-out per publisher and channel, as in
+/// Redis. A receiver that falls behind loses the oldest messages (on shared memory when its buffer
+/// of `buffer` messages is full; on Redis when the server's output-buffer limit cuts it off); the
+/// loss is counted in [`Stats::overflow_drops`], and a publisher never blocks on it.
+///
+/// On the iceoryx2 backends, messages a receiver has not taken yet are lost when their publisher
+/// closes (iceoryx2 unmaps a closed publisher's samples); Redis keeps them. A pod that must get
+/// its last frame out keeps its transport open until peers have read it.
+///
+/// A transport is used from one thread (iceoryx2 ports are not `Send`); every pod or cluster owns
+/// its own.
+pub trait Transport {
+    /// The backend behind this transport.
+    fn backend(&self) -> Backend;
+
+    /// Publishes `payload` on `channel`; returns how many subscribers it reached.
+    fn publish(&mut self, channel: &str, payload: &[u8]) -> Result<usize, PublishError> {
+        self.publish_with(channel, payload.len(), &mut |buffer| {
+            buffer[..payload.len()].copy_from_slice(payload);
+            Some(payload.len())
+        })
+    }
+
+    /// Publishes a payload written in place: `write` gets a zeroed buffer of `capacity` bytes
+    /// (on shared memory, the loaned sample itself), writes the payload at its start and returns
+    /// the length written, or `None` to publish nothing. Returns how many subscribers it reached.
+    fn publish_with(
+        &mut self,
+        channel: &str,
+        capacity: usize,
+        write: &mut dyn FnMut(&mut [u8]) -> Option<usize>,
+    ) -> Result<usize, PublishError>;
+
+    /// Starts receiving messages published on `channel`.
+    fn subscribe(&mut self, channel: &str) -> Result<(), SubscribeError>;
+
+    /// Stops receiving messages of `channel` (subscribing by name only; patterns stay).
+    fn unsubscribe(&mut self, channel: &str) -> Result<(), SubscribeError>;
+
+    /// Starts receiving messages of every channel that matches the glob `pattern`
+    /// (`*`, `?`, `[...]`, `\`), as Redis `PSUBSCRIBE`.
+    fn psubscribe(&mut self, pattern: &str) -> Result<(), SubscribeError>;
+
+    /// Stops receiving through `pattern`.
+    fn punsubscribe(&mut self, pattern: &str) -> Result<(), SubscribeError>;
+
+    /// Returns the next message if one is already here, without blocking.
+    fn try_receive(&mut self) -> Result<Option<Message<'_>>, ReceiveError>;
+
+    /// Returns the next message, sleeping (not spinning) up to `timeout` for one to arrive.
+    fn receive_timeout(&mut self, timeout: Duration) -> Result<Option<Message<'_>>, ReceiveError>;
+
+    /// What the transport has counted since it was opened.
+    fn stats(&self) -> Stats;
+
+    /// Largest payload a publish accepts, in bytes.
+    fn max_payload(&self) -> usize;
+}
