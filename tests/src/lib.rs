@@ -142,3 +142,66 @@ pub fn publish_until_received(
 pub const PATIENCE: Duration = Duration::from_secs(5);
 /// How long a test waits to be sure that something does not arrive.
 pub const SILENCE: Duration = Duration::from_millis(200);
+
+/// A `seam-test-peer` child process, killed if the test ends without closing it.
+pub struct Peer {
+    child: std::process::Child,
+    stdout: std::io::BufReader<std::process::ChildStdout>,
+}
+
+impl Peer {
+    /// Starts `seam-test-peer` with `args` and waits for its `ready` line.
+    pub fn spawn(peer_binary: &str, args: &[&str]) -> Self {
+        use std::process::{Command, Stdio};
+        let mut child = Command::new(peer_binary)
+            .args(args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot start {peer_binary}: {e}"));
+        let stdout = std::io::BufReader::new(child.stdout.take().expect("piped stdout"));
+        let mut peer = Self { child, stdout };
+        peer.expect_line("ready");
+        peer
+    }
+
+    /// Reads the child's next line and checks it is `expected`.
+    pub fn expect_line(&mut self, expected: &str) {
+        use std::io::BufRead;
+        let mut line = String::new();
+        self.stdout.read_line(&mut line).expect("read from peer");
+        assert_eq!(
+            line.trim(),
+            expected,
+            "the peer said something else (see its stderr)"
+        );
+    }
+
+    /// The child's process id.
+    pub fn id(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// Tells the child to exit and checks it succeeded.
+    pub fn finish(mut self) {
+        use std::io::Write;
+        if let Some(stdin) = self.child.stdin.as_mut() {
+            let _ = stdin.write_all(b"bye\n");
+        }
+        let status = self.child.wait().expect("wait for peer");
+        assert!(status.success(), "peer failed: {status}");
+    }
+
+    /// Kills the child with SIGKILL, as a crash would.
+    pub fn kill(mut self) {
+        self.child.kill().expect("kill peer");
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Peer {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
