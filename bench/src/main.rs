@@ -1,1 +1,161 @@
-fn main() {}
+//! `seam` — run and measure seam. See `seam --help`.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use seam_bench::ping::{self, PingPlan, WaitMode};
+
+#[derive(Parser)]
+#[command(
+    name = "seam",
+    version,
+    about = "Cross-cluster physics for multiplayer game backends: run and measure seam",
+    long_about = "Cross-cluster physics for multiplayer game backends: run and measure seam.\n\n\
+        Transports are named by URL: `shm` (iceoryx2 shared memory between processes of this \
+        host, no server needed; settings as `shm?prefix=NAME&buffer=N&max_payload=BYTES`), \
+        `local` (iceoryx2 inside one process) or `redis://[user:password@]host:port`."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Measure one-way latency between two processes (round trip / 2) over each transport.
+    ///
+    /// Spawns a peer process that echoes every message back, times the round trips and prints
+    /// p50 / p99 / p99.9 / max one-way latency and messages per second per transport and size.
+    /// Beside each `shm` row it measures plain iceoryx2 (no seam layer, busy-polling) as the
+    /// floor, and prints the shm / iceoryx2 and redis / shm ratios of one run.
+    Ping {
+        /// Transports to compare, comma separated, e.g. `shm,redis://127.0.0.1:6379`.
+        /// `redis` alone means redis://127.0.0.1:6379.
+        #[arg(long, default_value = "shm", value_delimiter = ',')]
+        transport: Vec<String>,
+        /// Payload sizes in bytes, comma separated.
+        #[arg(long, default_value = "64", value_delimiter = ',')]
+        size: Vec<usize>,
+        /// Timed round trips per row.
+        #[arg(long, default_value_t = 20_000)]
+        iterations: u64,
+        /// Untimed round trips before them.
+        #[arg(long, default_value_t = 2_000)]
+        warmup: u64,
+        /// How both sides wait for a message: auto spins on shared memory and sleeps on Redis.
+        #[arg(long, value_enum, default_value_t = WaitMode::Auto)]
+        wait: WaitMode,
+        /// Print one JSON object per row instead of the table.
+        #[arg(long)]
+        json: bool,
+        /// Skip the plain-iceoryx2 floor rows.
+        #[arg(long)]
+        no_floor: bool,
+    },
+    /// The peer side of `seam ping` (started by it).
+    #[command(hide = true)]
+    PingPeer {
+        #[arg(long)]
+        transport: String,
+        #[arg(long)]
+        ping: String,
+        #[arg(long)]
+        pong: String,
+        #[arg(long)]
+        count: u64,
+        #[arg(long, value_enum)]
+        wait: WaitMode,
+    },
+    /// The peer side of the plain-iceoryx2 floor (started by `seam ping`).
+    #[command(hide = true)]
+    PingFloorPeer {
+        #[arg(long)]
+        ping: String,
+        #[arg(long)]
+        pong: String,
+        #[arg(long)]
+        size: usize,
+        #[arg(long)]
+        count: u64,
+    },
+}
+
+/// `redis` alone is shorthand for the local default server.
+fn expand_transport(name: &str) -> String {
+    match name {
+        "redis" => "redis://127.0.0.1:6379".to_owned(),
+        other => other.to_owned(),
+    }
+}
+
+fn main() -> ExitCode {
+    let result = match Cli::parse().command {
+        Command::Ping {
+            transport,
+            size,
+            iterations,
+            warmup,
+            wait,
+            json,
+            no_floor,
+        } => {
+            let plan = PingPlan {
+                transports: transport.iter().map(|t| expand_transport(t)).collect(),
+                sizes: size,
+                iterations,
+                warmup,
+                wait,
+                floor: !no_floor,
+            };
+            let total = plan.transports.len() * plan.sizes.len()
+                + if plan.floor {
+                    plan.transports
+                        .iter()
+                        .filter(|t| *t == "shm" || t.starts_with("shm?"))
+                        .count()
+                        * plan.sizes.len()
+                } else {
+                    0
+                };
+            let mut done = 0;
+            eprintln!(
+                "seam ping: {iterations} timed round trips per row after {warmup} warm-up, one-way = round trip / 2, {} cores",
+                std::thread::available_parallelism().map_or(0, |n| n.get())
+            );
+            ping::run(&plan, |row| {
+                done += 1;
+                eprintln!("[{done}/{total}] {row}");
+            })
+            .map(|rows| {
+                if json {
+                    for row in &rows {
+                        println!("{}", serde_json::to_string(row).expect("rows serialise"));
+                    }
+                } else {
+                    print!("{}", ping::table(&rows));
+                }
+            })
+            .map_err(|e| e.to_string())
+        }
+        Command::PingPeer {
+            transport,
+            ping,
+            pong,
+            count,
+            wait,
+        } => ping::run_peer(&transport, &ping, &pong, count, wait),
+        Command::PingFloorPeer {
+            ping,
+            pong,
+            size,
+            count,
+        } => ping::run_floor_peer(&ping, &pong, size, count),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("seam: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

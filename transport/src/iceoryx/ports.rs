@@ -26,18 +26,18 @@ pub(super) enum PortError {
     Unavailable(String),
 }
 
+/// The data service and the wake-up service behind one channel.
+type ChannelServices<S> = (
+    publish_subscribe::PortFactory<S, [u8], Envelope>,
+    event::PortFactory<S>,
+);
+
 /// Opens (or creates with seam's limits) the two services behind `channel`.
 fn services<S: Service>(
     node: &Node<S>,
     config: &IceoryxConfig,
     channel: &str,
-) -> Result<
-    (
-        publish_subscribe::PortFactory<S, [u8], Envelope>,
-        event::PortFactory<S>,
-    ),
-    PortError,
-> {
+) -> Result<ChannelServices<S>, PortError> {
     let name = ServiceName::new(channel).map_err(|e| PortError::Unavailable(format!("{e:?}")))?;
     let nodes = config.max_publishers + config.max_subscribers;
     let data = node

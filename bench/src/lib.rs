@@ -1,0 +1,15 @@
+//! seam-bench — the `seam` command line and the criterion benches.
+//!
+//! `seam ping` is here now; pods, scenes, op latency and sweeps join it as the layers above the
+//! transport land.
+//!
+//! # Layout
+//!
+//! - `src/main.rs` — the `seam` CLI (clap): subcommands and their flags.
+//! - [`ping`] — `seam ping`: one-way latency between two processes over any transport, with
+//!   plain iceoryx2 as the floor.
+//! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.
+//! - `benches/bench_transport.rs` — in-process publish → receive per backend (criterion).
+
+pub mod latency;
+pub mod ping;

@@ -1,0 +1,204 @@
+//! `seam ping`: one-way latency between two processes, round trip / 2.
+//!
+//! The measuring side publishes a payload on `ping:<run>`, the peer (a child process started
+//! from this same binary; a thread for `local`) publishes it back on `pong:<run>`, and the round
+//! trip is timed with the monotonic clock. Before the timed rounds the peer announces itself in
+//! band and warm-up rounds run; after them a last message tells the peer to exit, so no peer
+//! closes its transport while its answer is unread.
+//!
+//! Rows for `iceoryx2` are the floor: the same exchange written directly against iceoryx2
+//! publish-subscribe, no seam layer, busy-polling.
+
+mod floor;
+mod peer;
+
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use crate::latency::{LatencyRecorder, LatencySummary, micros};
+pub use floor::run_floor_peer;
+pub use peer::run_peer;
+
+/// How a side waits for the next message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WaitMode {
+    /// Spin on shared memory, sleep on Redis (spinning clients would starve the server of CPU
+    /// on a small host).
+    Auto,
+    /// Poll without sleeping: lowest latency, one core per side.
+    Spin,
+    /// Sleep in the transport until woken.
+    Block,
+}
+
+impl WaitMode {
+    /// The mode `Auto` stands for on `transport`.
+    pub fn resolve(self, transport: &str) -> WaitMode {
+        match self {
+            WaitMode::Auto if transport.starts_with("redis") => WaitMode::Block,
+            WaitMode::Auto => WaitMode::Spin,
+            other => other,
+        }
+    }
+
+    /// The name used in tables and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            WaitMode::Auto => "auto",
+            WaitMode::Spin => "spin",
+            WaitMode::Block => "block",
+        }
+    }
+}
+
+/// What `seam ping` measures.
+pub struct PingPlan {
+    /// Transport URLs, in the order given.
+    pub transports: Vec<String>,
+    /// Payload sizes in bytes.
+    pub sizes: Vec<usize>,
+    /// Timed round trips per row.
+    pub iterations: u64,
+    /// Untimed round trips before them.
+    pub warmup: u64,
+    /// How both sides wait.
+    pub wait: WaitMode,
+    /// Whether to add the plain-iceoryx2 floor rows.
+    pub floor: bool,
+}
+
+/// One row of results.
+#[derive(Debug, Clone, Serialize)]
+pub struct PingRow {
+    /// `shm`, `local`, `redis`, or `iceoryx2` for the floor.
+    pub transport: String,
+    /// How both sides waited.
+    pub wait: &'static str,
+    /// Payload size in bytes.
+    pub size: usize,
+    /// Timed round trips.
+    pub iterations: u64,
+    /// One-way latency percentiles (round trip / 2).
+    #[serde(flatten)]
+    pub latency: LatencySummary,
+    /// One-way messages per second over the timed rounds (2 per round trip).
+    pub msgs_per_s: f64,
+}
+
+/// An error that ends a ping run.
+#[derive(Debug, thiserror::Error)]
+pub enum PingError {
+    /// The transport could not be opened or used.
+    #[error("{transport}: {reason}")]
+    Transport {
+        /// Transport URL (password redacted).
+        transport: String,
+        /// What failed.
+        reason: String,
+    },
+    /// The peer did not answer in time or exited.
+    #[error("{transport}: the peer {reason}")]
+    Peer {
+        /// Transport URL (password redacted).
+        transport: String,
+        /// What happened.
+        reason: String,
+    },
+}
+
+/// How long the measuring side waits for any one answer before giving up on the peer.
+pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Channel names of one row, unique to this process and row.
+pub fn channels(row: usize) -> (String, String) {
+    let run = format!("{}-{row}", std::process::id());
+    (format!("seam-ping:{run}"), format!("seam-pong:{run}"))
+}
+
+/// Runs every row of `plan`, calling `progress` before each.
+pub fn run(plan: &PingPlan, mut progress: impl FnMut(&str)) -> Result<Vec<PingRow>, PingError> {
+    let mut rows = Vec::new();
+    let mut row_index = 0;
+    for transport in &plan.transports {
+        let is_shm = transport == "shm" || transport.starts_with("shm?");
+        for &size in &plan.sizes {
+            if plan.floor && is_shm {
+                progress(&format!("iceoryx2 floor, {size} B"));
+                rows.push(floor::measure(transport, size, plan, row_index)?);
+                row_index += 1;
+            }
+            let wait = plan.wait.resolve(transport);
+            progress(&format!(
+                "{}, {size} B, {}",
+                seam_transport::redact_url(transport),
+                wait.name()
+            ));
+            rows.push(peer::measure(transport, size, wait, plan, row_index)?);
+            row_index += 1;
+        }
+    }
+    Ok(rows)
+}
+
+/// Times `iterations` round trips of `round`, after `warmup` untimed ones.
+pub fn time_rounds(
+    warmup: u64,
+    iterations: u64,
+    mut round: impl FnMut() -> Result<(), String>,
+) -> Result<(LatencySummary, f64), String> {
+    for _ in 0..warmup {
+        round()?;
+    }
+    let mut recorder = LatencyRecorder::default();
+    let started = Instant::now();
+    for _ in 0..iterations {
+        let t0 = Instant::now();
+        round()?;
+        recorder.record(t0.elapsed().as_nanos() as u64 / 2);
+    }
+    let elapsed = started.elapsed().as_secs_f64();
+    Ok((recorder.summary(), 2.0 * iterations as f64 / elapsed))
+}
+
+/// The table `seam ping` prints.
+pub fn table(rows: &[PingRow]) -> String {
+    let mut out = format!(
+        "{:<10} {:<6} {:>8} {:>9} {:>9} {:>10} {:>10} {:>12}\n",
+        "transport", "wait", "size B", "p50 µs", "p99 µs", "p99.9 µs", "max µs", "msgs/s"
+    );
+    for row in rows {
+        out += &format!(
+            "{:<10} {:<6} {:>8} {:>9} {:>9} {:>10} {:>10} {:>12.0}\n",
+            row.transport,
+            row.wait,
+            row.size,
+            micros(row.latency.p50_ns),
+            micros(row.latency.p99_ns),
+            micros(row.latency.p999_ns),
+            micros(row.latency.max_ns),
+            row.msgs_per_s
+        );
+    }
+    let p50 = |name: &str, size: usize, wait: Option<&str>| {
+        rows.iter()
+            .find(|r| r.transport == name && r.size == size && wait.is_none_or(|w| r.wait == w))
+            .map(|r| r.latency.p50_ns as f64)
+    };
+    let mut sizes: Vec<usize> = rows.iter().map(|r| r.size).collect();
+    sizes.sort_unstable();
+    sizes.dedup();
+    for size in sizes {
+        // The floor busy-polls, so it is compared with shm busy-polling only.
+        if let (Some(shm), Some(floor)) =
+            (p50("shm", size, Some("spin")), p50("iceoryx2", size, None))
+        {
+            out += &format!("{size} B: shm p50 / iceoryx2 p50 = {:.2}\n", shm / floor);
+        }
+        if let (Some(redis), Some(shm)) = (p50("redis", size, None), p50("shm", size, None)) {
+            out += &format!("{size} B: redis p50 / shm p50 = {:.1}\n", redis / shm);
+        }
+    }
+    out
+}
