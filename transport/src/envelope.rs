@@ -103,7 +103,8 @@ impl SeqCounter {
     }
 }
 
-/// Finds gaps in the numbering of each publisher on each channel.
+/// Finds gaps in the numbering of each publisher on each channel. Channels are known by a key
+/// from [`GapDetector::channel_key`], which a backend may compute once per subscription.
 #[derive(Debug, Default)]
 pub(crate) struct GapDetector {
     last: HashMap<(u64, u64), u64>,
@@ -111,20 +112,27 @@ pub(crate) struct GapDetector {
 }
 
 impl GapDetector {
-    /// Records `envelope` received on `channel`; returns how many messages went missing just
-    /// before it. The first message from a publisher on a channel sets the baseline.
-    pub(crate) fn observe(&mut self, channel: &str, envelope: &Envelope) -> u64 {
-        let key = (envelope.publisher, self.hasher.hash_one(channel));
-        match self.last.insert(key, envelope.seq) {
+    /// The key of `channel`.
+    pub(crate) fn channel_key(&self, channel: &str) -> u64 {
+        self.hasher.hash_one(channel)
+    }
+
+    /// Records `envelope` received on the channel with key `channel`; returns how many messages
+    /// went missing just before it. The first message from a publisher on a channel sets the
+    /// baseline.
+    pub(crate) fn observe(&mut self, channel: u64, envelope: &Envelope) -> u64 {
+        match self
+            .last
+            .insert((envelope.publisher, channel), envelope.seq)
+        {
             Some(last) if envelope.seq > last => envelope.seq - last - 1,
             _ => 0,
         }
     }
 
-    /// Forgets the numbering of `channel` (after an unsubscribe, a later gap is not a drop).
-    pub(crate) fn forget_channel(&mut self, channel: &str) {
-        let hash = self.hasher.hash_one(channel);
-        self.last.retain(|(_, c), _| *c != hash);
+    /// Forgets the numbering of a channel (after an unsubscribe, a later gap is not a drop).
+    pub(crate) fn forget_channel(&mut self, channel: u64) {
+        self.last.retain(|(_, c), _| *c != channel);
     }
 }
 
@@ -137,8 +145,14 @@ pub(crate) struct Intake {
 }
 
 impl Intake {
-    /// Counts a valid message received on `channel`, with the messages lost before it.
-    pub(crate) fn accept(&mut self, channel: &str, envelope: &Envelope) {
+    /// The key of `channel` for [`Self::accept`] and [`Self::forget_channel`].
+    pub(crate) fn channel_key(&self, channel: &str) -> u64 {
+        self.gaps.channel_key(channel)
+    }
+
+    /// Counts a valid message received on the channel with key `channel`, with the messages
+    /// lost before it.
+    pub(crate) fn accept(&mut self, channel: u64, envelope: &Envelope) {
         self.stats.overflow_drops += self.gaps.observe(channel, envelope);
         self.stats.received += 1;
     }
@@ -148,8 +162,8 @@ impl Intake {
         self.stats.malformed_drops += 1;
     }
 
-    /// Forgets the numbering of `channel` after an unsubscribe.
-    pub(crate) fn forget_channel(&mut self, channel: &str) {
+    /// Forgets the numbering of the channel with key `channel` after an unsubscribe.
+    pub(crate) fn forget_channel(&mut self, channel: u64) {
         self.gaps.forget_channel(channel);
     }
 }
@@ -185,12 +199,13 @@ mod tests {
     #[test]
     fn gaps_are_counted_per_publisher_and_channel() {
         let mut gaps = GapDetector::default();
-        assert_eq!(gaps.observe("a", &Envelope::new(1, 1, 0)), 0);
-        assert_eq!(gaps.observe("a", &Envelope::new(1, 2, 0)), 0);
-        assert_eq!(gaps.observe("a", &Envelope::new(1, 5, 0)), 2);
-        assert_eq!(gaps.observe("b", &Envelope::new(1, 9, 0)), 0, "baseline");
-        assert_eq!(gaps.observe("a", &Envelope::new(2, 4, 0)), 0, "baseline");
-        gaps.forget_channel("a");
-        assert_eq!(gaps.observe("a", &Envelope::new(1, 9, 0)), 0);
+        let (a, b) = (gaps.channel_key("a"), gaps.channel_key("b"));
+        assert_eq!(gaps.observe(a, &Envelope::new(1, 1, 0)), 0);
+        assert_eq!(gaps.observe(a, &Envelope::new(1, 2, 0)), 0);
+        assert_eq!(gaps.observe(a, &Envelope::new(1, 5, 0)), 2);
+        assert_eq!(gaps.observe(b, &Envelope::new(1, 9, 0)), 0, "baseline");
+        assert_eq!(gaps.observe(a, &Envelope::new(2, 4, 0)), 0, "baseline");
+        gaps.forget_channel(a);
+        assert_eq!(gaps.observe(a, &Envelope::new(1, 9, 0)), 0);
     }
 }

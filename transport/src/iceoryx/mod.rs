@@ -134,8 +134,9 @@ where
     }
 
     fn add_inlet(&mut self, channel: &str, pattern: Option<&str>) -> Result<(), SubscribeError> {
-        let inlet =
-            Inlet::create(&self.node, &self.config, channel, pattern).map_err(|e| match e {
+        let key = self.intake.channel_key(channel);
+        let inlet = Inlet::create(&self.node, &self.config, channel, pattern, key).map_err(
+            |e| match e {
                 PortError::Incompatible(reason) => SubscribeError::IncompatibleService {
                     channel: channel.to_owned(),
                     reason,
@@ -144,7 +145,8 @@ where
                     channel: channel.to_owned(),
                     reason,
                 },
-            })?;
+            },
+        )?;
         self.inlets.push(inlet);
         Ok(())
     }
@@ -152,7 +154,7 @@ where
     fn remove_inlet(&mut self, index: usize) {
         self.current = None;
         let inlet = self.inlets.remove(index);
-        self.intake.forget_channel(&inlet.channel);
+        self.intake.forget_channel(inlet.channel_key);
     }
 
     /// Subscribes to every existing channel that matches a pattern and is not yet received.
@@ -210,7 +212,7 @@ where
                     self.intake.malformed();
                     continue;
                 }
-                self.intake.accept(&inlet.channel, &envelope);
+                self.intake.accept(inlet.channel_key, &envelope);
                 self.cursor = index + 1;
                 self.current = Some((index, sample));
                 return Ok(true);
@@ -291,7 +293,22 @@ where
         }
         let publisher_id = self.publisher_id;
         let outlet = self.outlet(channel)?;
-        let reached = outlet.send(publisher_id, capacity, write)?;
+        let reached = outlet.send_with(publisher_id, capacity, write)?;
+        self.published += 1;
+        Ok(reached)
+    }
+
+    fn publish(&mut self, channel: &str, payload: &[u8]) -> Result<usize, PublishError> {
+        validate_channel(channel)?;
+        let max = self.config.max_payload;
+        if payload.len() > max {
+            return Err(PublishError::PayloadTooLarge {
+                len: payload.len(),
+                max,
+            });
+        }
+        let publisher_id = self.publisher_id;
+        let reached = self.outlet(channel)?.send_copy(publisher_id, payload)?;
         self.published += 1;
         Ok(reached)
     }

@@ -6,6 +6,7 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use iceoryx2::sample::Sample;
+use iceoryx2::sample_mut::SampleMut;
 use iceoryx2::service::Service;
 use iceoryx2::service::builder::event::EventOpenOrCreateError;
 use iceoryx2::service::builder::publish_subscribe::PublishSubscribeOpenOrCreateError;
@@ -109,22 +110,25 @@ impl<S: Service> Outlet<S> {
         })
     }
 
+    fn unavailable(&self, reason: String) -> PublishError {
+        PublishError::PortUnavailable {
+            channel: self.channel.clone(),
+            reason,
+        }
+    }
+
     /// Loans a sample of `capacity` bytes, lets `write` fill it, sends it and wakes listeners.
     /// Returns the number of subscribers reached.
-    pub(super) fn send(
+    pub(super) fn send_with(
         &mut self,
         publisher_id: u64,
         capacity: usize,
         write: &mut dyn FnMut(&mut [u8]) -> Option<usize>,
     ) -> Result<usize, PublishError> {
-        let unavailable = |reason: String| PublishError::PortUnavailable {
-            channel: self.channel.clone(),
-            reason,
-        };
         let sample = self
             .publisher
             .loan_slice_uninit(capacity)
-            .map_err(|e| unavailable(e.to_string()))?;
+            .map_err(|e| self.unavailable(e.to_string()))?;
         // The writer gets `&mut [u8]`, so the loan is initialised first (a memset of `capacity`
         // bytes, cheap next to encoding into it).
         let mut sample = sample.write_from_fn(|_| 0u8);
@@ -132,9 +136,32 @@ impl<S: Service> Outlet<S> {
         if written > capacity {
             return Err(PublishError::WriterOverrun { written, capacity });
         }
+        self.finish(publisher_id, written, sample)
+    }
+
+    /// Copies `payload` into a loaned sample, sends it and wakes listeners.
+    pub(super) fn send_copy(
+        &mut self,
+        publisher_id: u64,
+        payload: &[u8],
+    ) -> Result<usize, PublishError> {
+        let sample = self
+            .publisher
+            .loan_slice_uninit(payload.len())
+            .map_err(|e| self.unavailable(e.to_string()))?;
+        let sample = sample.write_from_slice(payload);
+        self.finish(publisher_id, payload.len(), sample)
+    }
+
+    fn finish(
+        &mut self,
+        publisher_id: u64,
+        written: usize,
+        mut sample: SampleMut<S, [u8], Envelope>,
+    ) -> Result<usize, PublishError> {
         self.seq += 1;
         *sample.user_header_mut() = Envelope::new(publisher_id, self.seq, written);
-        let reached = sample.send().map_err(|e| unavailable(e.to_string()))?;
+        let reached = sample.send().map_err(|e| self.unavailable(e.to_string()))?;
         // A failed wake-up (a listener's socket full) loses nothing: the sample is delivered and
         // that listener is already awake with wake-ups pending.
         let _ = self.notifier.notify();
@@ -145,6 +172,8 @@ impl<S: Service> Outlet<S> {
 /// The receiving side of one channel.
 pub(super) struct Inlet<S: Service> {
     pub(super) channel: String,
+    /// Key of `channel` for sequence-gap bookkeeping, computed once.
+    pub(super) channel_key: u64,
     /// The pattern that led to this subscription, if a pattern did.
     pub(super) pattern: Option<String>,
     /// Whether the channel is also subscribed by name.
@@ -159,6 +188,7 @@ impl<S: Service> Inlet<S> {
         config: &IceoryxConfig,
         channel: &str,
         pattern: Option<&str>,
+        channel_key: u64,
     ) -> Result<Self, PortError> {
         let (data, wake) = services(node, config, channel)?;
         let subscriber = data
@@ -172,6 +202,7 @@ impl<S: Service> Inlet<S> {
             .map_err(|e| PortError::Unavailable(e.to_string()))?;
         Ok(Self {
             channel: channel.to_owned(),
+            channel_key,
             pattern: pattern.map(str::to_owned),
             direct: pattern.is_none(),
             subscriber,

@@ -131,7 +131,8 @@ fn classify<'a>(frame: &Frame<'a>) -> Reply<'a> {
 fn accept(intake: &mut Intake, channel: &[u8], wire: &[u8]) -> Option<Range<usize>> {
     match std::str::from_utf8(channel).ok().zip(Envelope::split(wire)) {
         Some((channel, (envelope, payload))) => {
-            intake.accept(channel, &envelope);
+            let key = intake.channel_key(channel);
+            intake.accept(key, &envelope);
             Some(range_in(wire, payload))
         }
         None => {
@@ -531,7 +532,8 @@ impl Transport for RedisTransport {
 
     fn unsubscribe(&mut self, channel: &str) -> Result<(), SubscribeError> {
         self.subscription("UNSUBSCRIBE", channel)?;
-        self.intake.forget_channel(channel);
+        let key = self.intake.channel_key(channel);
+        self.intake.forget_channel(key);
         Ok(())
     }
 
