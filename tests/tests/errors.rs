@@ -1,0 +1,179 @@
+//! Errors that name what is wrong: bad URLs, unreachable servers, incompatible services, and
+//! foreign bytes on a channel (counted and skipped, never handed to the caller).
+
+use seam_tests::{PATIENCE, TestContext, receive, redis_url};
+use seam_transport::{Backend, OpenError, SubscribeError};
+
+#[test]
+fn bad_urls_say_what_is_wrong() {
+    let error = |url: &str| match seam_transport::open(url) {
+        Err(e) => e,
+        Ok(_) => panic!("{url} opened"),
+    };
+    assert!(matches!(error("tcp://x"), OpenError::InvalidUrl { .. }));
+    let unknown = error("shm?bufer=4").to_string();
+    assert!(unknown.contains("unknown setting `bufer`"), "{unknown}");
+    let zero = error("shm?buffer=0").to_string();
+    assert!(zero.contains("positive"), "{zero}");
+    let prefix = error("shm?prefix=a/b").to_string();
+    assert!(prefix.contains("prefix"), "{prefix}");
+}
+
+#[test]
+fn unreachable_redis_names_the_address_and_hides_the_password() {
+    // Port 1 on loopback: nothing listens there.
+    let error = match seam_transport::open("redis://admin:hunter2@127.0.0.1:1") {
+        Err(e) => e,
+        Ok(_) => panic!("connected to port 1"),
+    };
+    let OpenError::Unreachable { addr, .. } = &error else {
+        panic!("expected Unreachable, got {error:?}");
+    };
+    assert_eq!(addr, "127.0.0.1:1");
+    for text in [error.to_string(), format!("{error:?}")] {
+        assert!(text.contains("127.0.0.1:1"), "{text}");
+        assert!(!text.contains("hunter2"), "the password leaked: {text}");
+    }
+}
+
+#[test]
+fn wrong_redis_password_is_an_authentication_error() {
+    let Some(_ctx) = TestContext::new(Backend::Redis) else {
+        return;
+    };
+    let url = redis_url().replacen("redis://", "redis://nobody:wrong-secret@", 1);
+    match seam_transport::open(&url) {
+        Err(OpenError::AuthenticationFailed { reason, .. }) => {
+            assert!(
+                !reason.contains("wrong-secret"),
+                "the password leaked: {reason}"
+            );
+        }
+        Err(other) => panic!("expected AuthenticationFailed, got {other}"),
+        Ok(_) => panic!("a wrong password was accepted"),
+    }
+}
+
+fn incompatible_settings_are_refused(backend: Backend) {
+    let ctx = TestContext::new(backend).expect("iceoryx2 backends are always available");
+    let channel = ctx.channel("small");
+    // The first pod creates the channel for two subscribers; a pod that needs 16 cannot join.
+    let mut first = ctx.open_with("max_subscribers=2");
+    first.subscribe(&channel).expect("subscribe");
+    let mut second = ctx.open();
+    match second.subscribe(&channel) {
+        Err(SubscribeError::IncompatibleService { channel: c, reason }) => {
+            assert_eq!(c, channel);
+            assert!(!reason.is_empty());
+        }
+        other => panic!("expected IncompatibleService, got {other:?}"),
+    }
+    let message = second
+        .publish(&channel, b"x")
+        .expect_err("publish is refused too");
+    assert!(
+        message.to_string().contains("incompatible settings"),
+        "{message}"
+    );
+}
+
+#[test]
+fn shm_incompatible_settings_are_refused() {
+    incompatible_settings_are_refused(Backend::Shm);
+}
+
+#[test]
+fn local_incompatible_settings_are_refused() {
+    incompatible_settings_are_refused(Backend::Local);
+}
+
+/// Bytes published on a seam channel by something that is not seam are counted and skipped.
+#[test]
+fn redis_foreign_bytes_are_counted_and_skipped() {
+    let Some(ctx) = TestContext::new(Backend::Redis) else {
+        return;
+    };
+    let mut subscriber = ctx.open();
+    let channel = ctx.channel("foreign");
+    subscriber.subscribe(&channel).expect("subscribe");
+    let client = redis::Client::open(redis_url()).expect("url");
+    let mut raw = client.get_connection().expect("connect");
+    for junk in [&b""[..], b"hello", &[0xFFu8; 40][..], &[0u8; 32][..]] {
+        let reached: usize = redis::cmd("PUBLISH")
+            .arg(&channel)
+            .arg(junk)
+            .query(&mut raw)
+            .expect("publish");
+        assert_eq!(reached, 1);
+    }
+    let mut seam = ctx.open();
+    seam.publish(&channel, b"real").expect("publish");
+    let message = receive(subscriber.as_mut(), PATIENCE).expect("the real message arrives");
+    assert_eq!(message.payload, b"real");
+    assert_eq!(subscriber.stats().malformed_drops, 4);
+    assert_eq!(subscriber.stats().received, 1);
+}
+
+/// The same on shared memory: a raw iceoryx2 publisher writes samples whose header is not a
+/// valid seam envelope.
+#[test]
+fn shm_foreign_samples_are_counted_and_skipped() {
+    use iceoryx2::prelude::*;
+    use seam_transport::Envelope;
+    let Some(ctx) = TestContext::new(Backend::Shm) else {
+        return;
+    };
+    let mut subscriber = ctx.open();
+    let channel = ctx.channel("forged");
+    subscriber.subscribe(&channel).expect("subscribe");
+
+    let mut config = iceoryx2::config::Config::default();
+    let prefix = ctx
+        .url()
+        .split("prefix=")
+        .nth(1)
+        .expect("prefix")
+        .to_owned();
+    config.global.prefix = FileName::new(prefix.as_bytes()).expect("prefix");
+    let node = NodeBuilder::new()
+        .config(&config)
+        .create::<ipc::Service>()
+        .expect("node");
+    let service = node
+        .service_builder(&ServiceName::new(&channel).expect("name"))
+        .publish_subscribe::<[u8]>()
+        .user_header::<Envelope>()
+        .open()
+        .expect("the channel exists");
+    let publisher = service
+        .publisher_builder()
+        .initial_max_slice_len(64)
+        .create()
+        .expect("port");
+    let forged = [
+        Envelope::default(), // no magic
+        Envelope {
+            seq: 0,
+            ..Envelope::new(1, 1, 4)
+        }, // sequence 0
+        Envelope::new(1, 1, 1000), // longer than the sample
+        Envelope {
+            version: 99,
+            ..Envelope::new(1, 2, 4)
+        }, // unknown version
+    ];
+    for envelope in forged {
+        let mut sample = publisher
+            .loan_slice_uninit(4)
+            .expect("loan")
+            .write_from_slice(b"junk");
+        *sample.user_header_mut() = envelope;
+        sample.send().expect("send");
+    }
+    let mut seam = ctx.open();
+    seam.publish(&channel, b"real").expect("publish");
+    let message = receive(subscriber.as_mut(), PATIENCE).expect("the real message arrives");
+    assert_eq!(message.payload, b"real");
+    assert_eq!(subscriber.stats().malformed_drops, 4);
+    assert_eq!(subscriber.stats().received, 1);
+}
