@@ -177,3 +177,52 @@ fn shm_foreign_samples_are_counted_and_skipped() {
     assert_eq!(subscriber.stats().malformed_drops, 4);
     assert_eq!(subscriber.stats().received, 1);
 }
+
+/// A user and password in the URL authenticate both connections (a temporary ACL user).
+#[test]
+fn redis_user_and_password_in_the_url_work() {
+    let Some(ctx) = TestContext::new(Backend::Redis) else {
+        return;
+    };
+    let user = format!("seam_test_{}", std::process::id());
+    let password = format!("pw-{}-secret", std::process::id());
+    let client = redis::Client::open(redis_url()).expect("url");
+    let mut admin = client.get_connection().expect("connect");
+    let created: redis::RedisResult<()> = redis::cmd("ACL")
+        .arg("SETUSER")
+        .arg(&user)
+        .arg("on")
+        .arg(format!(">{password}"))
+        .arg("~*")
+        .arg("&*")
+        .arg("+@all")
+        .query(&mut admin);
+    created.expect("create a temporary ACL user");
+    let url = redis_url().replacen("redis://", &format!("redis://{user}:{password}@"), 1);
+    let result = std::panic::catch_unwind(|| {
+        let mut publisher = seam_transport::open(&url).expect("open with user and password");
+        let mut subscriber = seam_transport::open(&url).expect("open with user and password");
+        let channel = ctx.channel("authenticated");
+        subscriber.subscribe(&channel).expect("subscribe");
+        assert_eq!(publisher.publish(&channel, b"in").expect("publish"), 1);
+        let message = receive(subscriber.as_mut(), PATIENCE).expect("arrives");
+        assert_eq!(message.payload, b"in");
+        // Both connections of both transports are logged in as the user, not as `default`.
+        let clients: String = redis::cmd("CLIENT")
+            .arg("LIST")
+            .query(&mut client.get_connection().expect("connect"))
+            .expect("client list");
+        let as_user = clients
+            .lines()
+            .filter(|line| line.contains(&format!(" user={user} ")))
+            .count();
+        assert_eq!(as_user, 4, "connections logged in as {user}:\n{clients}");
+    });
+    let _: redis::RedisResult<()> = redis::cmd("ACL")
+        .arg("DELUSER")
+        .arg(&user)
+        .query(&mut admin);
+    if let Err(panic) = result {
+        std::panic::resume_unwind(panic);
+    }
+}
