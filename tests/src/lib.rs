@@ -63,6 +63,7 @@ impl TestContext {
             Backend::Redis => redis_url(),
             backend => {
                 let mut url = format!("{}?prefix=seam_{}_", backend.name(), self.id);
+                debug_assert_eq!(self.prefix().as_deref(), url.split("prefix=").nth(1));
                 if !settings.is_empty() {
                     url.push('&');
                     url.push_str(settings);
@@ -86,6 +87,11 @@ impl TestContext {
     pub fn open_with(&self, settings: &str) -> Box<dyn Transport> {
         let url = self.url_with(settings);
         seam_transport::open(&url).unwrap_or_else(|e| panic!("cannot open {url}: {e}"))
+    }
+
+    /// The iceoryx2 file prefix of this test's transports (`None` on Redis).
+    pub fn prefix(&self) -> Option<String> {
+        (self.backend != Backend::Redis).then(|| format!("seam_{}_", self.id))
     }
 
     /// A channel name unique to this test.

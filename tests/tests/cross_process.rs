@@ -109,13 +109,7 @@ fn shm_reclaims_a_killed_pods_resources() {
     peer.kill();
 
     let mut config = iceoryx2::config::Config::default();
-    let prefix = ctx
-        .url_with(settings)
-        .split("prefix=")
-        .nth(1)
-        .and_then(|rest| rest.split('&').next())
-        .expect("prefix in url")
-        .to_owned();
+    let prefix = ctx.prefix().expect("shm has a prefix");
     config.global.prefix = FileName::new(prefix.as_bytes()).expect("prefix");
     let dead_nodes = || {
         let mut dead = 0;

@@ -2,7 +2,7 @@
 //! foreign bytes on a channel (counted and skipped, never handed to the caller).
 
 use seam_tests::{PATIENCE, TestContext, receive, redis_url};
-use seam_transport::{Backend, OpenError, SubscribeError};
+use seam_transport::{Backend, OpenError, SubscribeError, Transport};
 
 #[test]
 fn bad_urls_say_what_is_wrong() {
@@ -87,6 +87,22 @@ fn local_incompatible_settings_are_refused() {
     incompatible_settings_are_refused(Backend::Local);
 }
 
+/// After `junk` foreign messages on `channel`, a real seam message is the only one delivered and
+/// the junk is counted.
+fn only_the_real_message_arrives(
+    ctx: &TestContext,
+    subscriber: &mut dyn Transport,
+    channel: &str,
+    junk: u64,
+) {
+    let mut seam = ctx.open();
+    seam.publish(channel, b"real").expect("publish");
+    let message = receive(subscriber, PATIENCE).expect("the real message arrives");
+    assert_eq!(message.payload, b"real");
+    assert_eq!(subscriber.stats().malformed_drops, junk);
+    assert_eq!(subscriber.stats().received, 1);
+}
+
 /// Bytes published on a seam channel by something that is not seam are counted and skipped.
 #[test]
 fn redis_foreign_bytes_are_counted_and_skipped() {
@@ -106,12 +122,7 @@ fn redis_foreign_bytes_are_counted_and_skipped() {
             .expect("publish");
         assert_eq!(reached, 1);
     }
-    let mut seam = ctx.open();
-    seam.publish(&channel, b"real").expect("publish");
-    let message = receive(subscriber.as_mut(), PATIENCE).expect("the real message arrives");
-    assert_eq!(message.payload, b"real");
-    assert_eq!(subscriber.stats().malformed_drops, 4);
-    assert_eq!(subscriber.stats().received, 1);
+    only_the_real_message_arrives(&ctx, subscriber.as_mut(), &channel, 4);
 }
 
 /// The same on shared memory: a raw iceoryx2 publisher writes samples whose header is not a
@@ -170,12 +181,7 @@ fn shm_foreign_samples_are_counted_and_skipped() {
         *sample.user_header_mut() = envelope;
         sample.send().expect("send");
     }
-    let mut seam = ctx.open();
-    seam.publish(&channel, b"real").expect("publish");
-    let message = receive(subscriber.as_mut(), PATIENCE).expect("the real message arrives");
-    assert_eq!(message.payload, b"real");
-    assert_eq!(subscriber.stats().malformed_drops, 4);
-    assert_eq!(subscriber.stats().received, 1);
+    only_the_real_message_arrives(&ctx, subscriber.as_mut(), &channel, 4);
 }
 
 /// A user and password in the URL authenticate both connections (a temporary ACL user).

@@ -136,11 +136,12 @@ impl GapDetector {
     }
 }
 
-/// The receiving side's bookkeeping: validity, gaps and the counters they feed.
+/// A transport's bookkeeping: the counters of [`crate::Stats`] and the sequence gaps that feed
+/// `overflow_drops`.
 #[derive(Debug, Default)]
 pub(crate) struct Intake {
     gaps: GapDetector,
-    /// Counters; `published` is left to the publishing side.
+    /// The counters; backends add to `published` themselves.
     pub(crate) stats: crate::Stats,
 }
 

@@ -49,7 +49,6 @@ pub struct IceoryxTransport<S: Service> {
     /// The sample behind the last returned message: (index into `inlets`, sample).
     current: Option<(usize, ports::InSample<S>)>,
     intake: Intake,
-    published: u64,
 }
 
 /// Shared memory across the processes of one host.
@@ -97,7 +96,6 @@ where
             cursor: 0,
             current: None,
             intake: Intake::default(),
-            published: 0,
         })
     }
 
@@ -294,7 +292,7 @@ where
         let publisher_id = self.publisher_id;
         let outlet = self.outlet(channel)?;
         let reached = outlet.send_with(publisher_id, capacity, write)?;
-        self.published += 1;
+        self.intake.stats.published += 1;
         Ok(reached)
     }
 
@@ -309,7 +307,7 @@ where
         }
         let publisher_id = self.publisher_id;
         let reached = self.outlet(channel)?.send_copy(publisher_id, payload)?;
-        self.published += 1;
+        self.intake.stats.published += 1;
         Ok(reached)
     }
 
@@ -382,9 +380,7 @@ where
     }
 
     fn stats(&self) -> Stats {
-        let mut stats = self.intake.stats;
-        stats.published = self.published;
-        stats
+        self.intake.stats
     }
 
     fn max_payload(&self) -> usize {

@@ -55,7 +55,6 @@ pub struct RedisTransport {
     current: Option<Current>,
     /// Bytes of an oversized reply still to skip.
     discard: usize,
-    published: u64,
     intake: Intake,
 }
 
@@ -248,7 +247,6 @@ impl RedisTransport {
             early: VecDeque::new(),
             current: None,
             discard: 0,
-            published: 0,
             intake: Intake::default(),
         };
         if let Some(password) = &password {
@@ -522,7 +520,7 @@ impl Transport for RedisTransport {
                 addr: self.addr.clone(),
                 reason: e.to_string(),
             })?;
-        self.published += 1;
+        self.intake.stats.published += 1;
         Ok(reached)
     }
 
@@ -569,9 +567,7 @@ impl Transport for RedisTransport {
     }
 
     fn stats(&self) -> Stats {
-        let mut stats = self.intake.stats;
-        stats.published = self.published;
-        stats
+        self.intake.stats
     }
 
     fn max_payload(&self) -> usize {
