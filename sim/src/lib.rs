@@ -1,15 +1,65 @@
-//! seam-sim — one cluster's physics, knowing nothing of transports or of other clusters beyond
-//! each entity's `cluster_id`.
+//! seam-sim — one cluster's physics: a Rapier world keyed by entity, and the wire types clusters
+//! exchange. It knows nothing of transports or of other clusters beyond each entity's
+//! `cluster_id`.
 //!
-//! Not built yet (issue 3). It will hold:
+//! ```
+//! use seam_sim::{BodyRole, ClusterSim, LocalOnly, SimConfig};
+//! use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+//!
+//! let here = ClusterId::random();
+//! let mut sim = ClusterSim::new(SimConfig::new(here));
+//! let ball = EntityId::random();
+//! sim.spawn(
+//!     &EntityState {
+//!         id: ball,
+//!         cluster_id: here,
+//!         tick: 0,
+//!         position: [0.0, 10.0, 0.0],
+//!         rotation: [0.0, 0.0, 0.0, 1.0],
+//!         linvel: [0.0; 3],
+//!         angvel: [0.0; 3],
+//!         body: BodyShape { shape: Shape::Ball { radius: 0.5 }, density: 1.0, ccd: false },
+//!     },
+//!     BodyRole::Dynamic,
+//! )?;
+//! // User code runs with a tick context and an entity-keyed handle, then the world steps.
+//! sim.run_user(&mut LocalOnly, |_context, physics| {
+//!     physics.apply_impulse(ball, [1.0, 0.0, 0.0]).map(|_| ())
+//! })?;
+//! sim.step();
+//! assert!(sim.state(ball).expect("spawned").linvel[0] > 0.0);
+//! # Ok::<(), seam_sim::SimError>(())
+//! ```
 //!
 //! # Layout
 //!
-//! - `wire` — `EntityId`, `ClusterId`, `EntityState`, `ReplicationFrame`, `PhysicsEventsFrame`
-//!   and `PhysicsOp`, postcard-encoded behind a format version; decoding untrusted bytes never
-//!   panics.
-//! - `cluster_sim` — `ClusterSim`: one Rapier world with a map entity → body, bodies that change
-//!   role in place (dynamic, Fixed, kinematic), deterministic stepping.
-//! - `handle` — the tick context and `PhysicsHandle`: entity-keyed reads, queries and writes,
-//!   validated (no NaN, no unknown entity), with a hook that lets the proxy layer route writes on
+//! - [`wire`] — ids, [`wire::EntityState`], [`wire::ReplicationFrame`],
+//!   [`wire::PhysicsEventsFrame`], [`wire::PhysicsOp`]; postcard behind a version byte, safe on
+//!   untrusted bytes.
+//! - `cluster_sim` — [`ClusterSim`], [`SimConfig`], [`BodyRole`]: the world, spawning and
+//!   despawning from states, roles changed in place, stepping.
+//! - `handle` — [`TickContext`], [`PhysicsHandle`] (reads, raycasts, shape queries, writes,
+//!   joints), and [`WriteRouter`], the hook through which the proxy layer routes writes on
 //!   entities owned elsewhere.
+//! - `body` — Rapier bodies and colliders behind entities.
+//! - `contacts` — Rapier collision events as entity pairs ([`ContactEvent`]).
+//! - `validate` — NaN, infinity, rotation and shape checks before anything reaches Rapier.
+//! - `error` — [`SimError`].
+//!
+//! Determinism: Rapier is built with `enhanced-determinism`, and entities are kept in id order,
+//! so the same inputs in the same order give bit-identical worlds.
+
+mod body;
+mod cluster_sim;
+mod contacts;
+mod error;
+mod handle;
+mod validate;
+pub mod wire;
+
+pub use cluster_sim::{BodyRole, ClusterSim, EntityInfo, SimConfig};
+pub use contacts::ContactEvent;
+pub use error::SimError;
+pub use handle::{
+    JointId, JointSpec, LocalOnly, PhysicsHandle, RayHit, TickContext, WriteOutcome, WriteRouter,
+};

@@ -1,0 +1,164 @@
+//! Rapier bodies behind entities: creation from a state, reading a state back, writes.
+//!
+//! Every body has exactly one collider, attached at the body origin; both carry the entity id as
+//! Rapier user data, so a collider found by a query or a contact names its entity directly.
+
+use rapier3d::prelude::*;
+
+use crate::cluster_sim::{BodyRole, EntityInfo};
+use crate::wire::{EntityId, EntityState, PhysicsOp, Shape};
+
+/// An entity's body in the world.
+pub(crate) struct Entry {
+    pub(crate) body: RigidBodyHandle,
+    pub(crate) collider: ColliderHandle,
+    pub(crate) info: EntityInfo,
+}
+
+/// Contacts that produce events: Rapier's default (anything with a dynamic body) plus
+/// kinematic–kinematic and kinematic–fixed, so a proxy touching a kinematic body owned here is
+/// reported too.
+fn collision_types() -> ActiveCollisionTypes {
+    ActiveCollisionTypes::default()
+        | ActiveCollisionTypes::KINEMATIC_KINEMATIC
+        | ActiveCollisionTypes::KINEMATIC_FIXED
+}
+
+pub(crate) fn collider_for(shape: &Shape) -> ColliderBuilder {
+    match *shape {
+        Shape::Ball { radius } => ColliderBuilder::ball(radius),
+        Shape::Cuboid {
+            half_extents: [x, y, z],
+        } => ColliderBuilder::cuboid(x, y, z),
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => ColliderBuilder::capsule_y(half_height, radius),
+    }
+}
+
+pub(crate) fn pose_of(position: [f32; 3], rotation: [f32; 4]) -> Pose {
+    let [x, y, z, w] = rotation;
+    Pose::from_parts(
+        Vector::from_array(position),
+        Rotation::from_xyzw(x, y, z, w).normalize(),
+    )
+}
+
+/// Creates the body and collider of a (validated) state.
+pub(crate) fn insert(world: &mut PhysicsWorld, state: &EntityState, role: BodyRole) -> Entry {
+    let data = state.id.as_u128();
+    let body = RigidBodyBuilder::new(role.rapier())
+        .pose(pose_of(state.position, state.rotation))
+        .linvel(Vector::from_array(state.linvel))
+        .angvel(Vector::from_array(state.angvel))
+        .ccd_enabled(state.body.ccd)
+        .user_data(data);
+    let collider = collider_for(&state.body.shape)
+        .density(state.body.density)
+        .user_data(data)
+        .active_events(ActiveEvents::COLLISION_EVENTS)
+        .active_collision_types(collision_types());
+    let (body, collider) = world.insert(body, collider);
+    let entry = Entry {
+        body,
+        collider,
+        info: EntityInfo {
+            cluster_id: state.cluster_id,
+            role,
+            body: state.body,
+        },
+    };
+    sync_query_bounds(world, &entry);
+    entry
+}
+
+/// Reads an entity's state back.
+pub(crate) fn state_of(
+    world: &PhysicsWorld,
+    id: EntityId,
+    entry: &Entry,
+    tick: u64,
+) -> EntityState {
+    let body = &world.bodies[entry.body];
+    EntityState {
+        id,
+        cluster_id: entry.info.cluster_id,
+        tick,
+        position: body.translation().to_array(),
+        rotation: body.rotation().to_array(),
+        linvel: body.linvel().to_array(),
+        angvel: body.angvel().to_array(),
+        body: entry.info.body,
+    }
+}
+
+/// Brings the collider and the query structure up to date with a body moved outside a step,
+/// so raycasts and shape queries see it before the next step.
+pub(crate) fn sync_query_bounds(world: &mut PhysicsWorld, entry: &Entry) {
+    let pose = *world.bodies[entry.body].position();
+    if let Some(collider) = world.colliders.get_mut(entry.collider) {
+        collider.set_position(pose);
+        let aabb = collider.compute_aabb();
+        world
+            .broad_phase
+            .set_aabb(&world.integration_parameters, entry.collider, aabb);
+    }
+}
+
+/// Moves a body to a (validated) replicated state as its role allows.
+pub(crate) fn apply_state(world: &mut PhysicsWorld, entry: &Entry, state: &EntityState, dt: f32) {
+    let target = pose_of(state.position, state.rotation);
+    let linvel = Vector::from_array(state.linvel);
+    let angvel = Vector::from_array(state.angvel);
+    let body = &mut world.bodies[entry.body];
+    match entry.info.role {
+        BodyRole::Dynamic | BodyRole::Fixed => {
+            body.set_position(target, true);
+            body.set_linvel(linvel, true);
+            body.set_angvel(angvel, true);
+        }
+        BodyRole::KinematicVelocityBased => {
+            // The velocity that carries the body from where it is to the replicated pose in
+            // one step; queries see it where it is now.
+            let current = *body.position();
+            let reach = (target.translation - current.translation) / dt;
+            let turn = target.rotation * current.rotation.inverse();
+            let (axis, angle) = turn.to_axis_angle();
+            let angle = if angle > std::f32::consts::PI {
+                angle - std::f32::consts::TAU
+            } else {
+                angle
+            };
+            body.set_linvel(reach, true);
+            body.set_angvel(axis * (angle / dt), true);
+            return;
+        }
+        BodyRole::KinematicPositionBased => {
+            body.set_next_kinematic_position(target);
+            return;
+        }
+    }
+    sync_query_bounds(world, entry);
+}
+
+/// Applies a (validated) write.
+pub(crate) fn apply_op(world: &mut PhysicsWorld, entry: &Entry, op: &PhysicsOp) {
+    let body = &mut world.bodies[entry.body];
+    let vector = |v: [f32; 3]| Vector::from_array(v);
+    match *op {
+        PhysicsOp::Impulse { impulse, .. } => body.apply_impulse(vector(impulse), true),
+        PhysicsOp::Force { force, .. } => body.add_force(vector(force), true),
+        PhysicsOp::TorqueImpulse { torque_impulse, .. } => {
+            body.apply_torque_impulse(vector(torque_impulse), true)
+        }
+        PhysicsOp::SetTranslation { translation, .. } => {
+            body.set_translation(vector(translation), true);
+            sync_query_bounds(world, entry);
+        }
+        PhysicsOp::SetLinvel { linvel, .. } => body.set_linvel(vector(linvel), true),
+        PhysicsOp::SetAngvel { angvel, .. } => body.set_angvel(vector(angvel), true),
+        PhysicsOp::Wake { .. } => body.wake_up(true),
+        PhysicsOp::Sleep { .. } => body.sleep(),
+    }
+}

@@ -1,0 +1,272 @@
+//! [`ClusterSim`]: one cluster's Rapier world, keyed by entity.
+
+use std::collections::BTreeMap;
+
+use rapier3d::prelude::*;
+
+use crate::body::{self, Entry};
+use crate::contacts::{ContactCollector, ContactEvent};
+use crate::error::SimError;
+use crate::handle::{Joints, PhysicsHandle, TickContext, WriteRouter};
+use crate::validate;
+use crate::wire::{ClusterId, EntityId, EntityState, PhysicsOp};
+
+/// How a body takes part in the simulation. A body changes role in place, keeping its handle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum BodyRole {
+    /// Simulated: forces, impulses and contacts move it. Only the authority has these.
+    Dynamic,
+    /// Does not move unless set; other bodies collide with it. The default proxy.
+    Fixed,
+    /// Moves with the velocity it is given; contacts do not push it.
+    KinematicVelocityBased,
+    /// Moves to the pose it is given by the next step; contacts do not push it.
+    KinematicPositionBased,
+}
+
+impl BodyRole {
+    pub(crate) fn rapier(self) -> RigidBodyType {
+        match self {
+            BodyRole::Dynamic => RigidBodyType::Dynamic,
+            BodyRole::Fixed => RigidBodyType::Fixed,
+            BodyRole::KinematicVelocityBased => RigidBodyType::KinematicVelocityBased,
+            BodyRole::KinematicPositionBased => RigidBodyType::KinematicPositionBased,
+        }
+    }
+}
+
+/// What the world knows of an entity besides its body.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EntityInfo {
+    /// The entity's authority as this world last learned it.
+    pub cluster_id: ClusterId,
+    /// The body's current role.
+    pub role: BodyRole,
+    /// Shape, density, CCD.
+    pub body: crate::wire::BodyShape,
+}
+
+/// Settings of one cluster's world.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimConfig {
+    /// This cluster.
+    pub cluster_id: ClusterId,
+    /// Step length in seconds.
+    pub dt: f32,
+    /// Gravity, m/s².
+    pub gravity: [f32; 3],
+    /// Largest linear speed Rapier lets a body keep after a solver substep, m/s. Rapier's own
+    /// default is 400 m/s, below a rifle bullet; raise it for fast projectiles (and give them
+    /// CCD).
+    pub max_linear_velocity: f32,
+}
+
+impl SimConfig {
+    /// 60 Hz, Earth gravity along −y, Rapier's default speed cap of 400 m/s.
+    pub fn new(cluster_id: ClusterId) -> Self {
+        Self {
+            cluster_id,
+            dt: 1.0 / 60.0,
+            gravity: [0.0, -9.81, 0.0],
+            max_linear_velocity: 400.0,
+        }
+    }
+}
+
+/// One cluster's world: a Rapier world and a map entity → body.
+///
+/// It knows nothing of other clusters beyond each entity's `cluster_id`; the proxy layer above
+/// decides which role each body has and routes writes on entities owned elsewhere (see
+/// [`WriteRouter`]).
+pub struct ClusterSim {
+    config: SimConfig,
+    world: PhysicsWorld,
+    entities: BTreeMap<EntityId, Entry>,
+    joints: Joints,
+    tick: u64,
+    collector: ContactCollector,
+    contacts: Vec<ContactEvent>,
+}
+
+impl ClusterSim {
+    /// An empty world.
+    pub fn new(config: SimConfig) -> Self {
+        let mut world = PhysicsWorld::new();
+        world.gravity = Vector::from_array(config.gravity);
+        world.integration_parameters.dt = config.dt;
+        world.integration_parameters.normalized_max_linear_velocity =
+            config.max_linear_velocity / world.integration_parameters.length_unit;
+        Self {
+            config,
+            world,
+            entities: BTreeMap::new(),
+            joints: Joints::default(),
+            tick: 0,
+            collector: ContactCollector::default(),
+            contacts: Vec::new(),
+        }
+    }
+
+    /// This cluster's id.
+    pub fn cluster_id(&self) -> ClusterId {
+        self.config.cluster_id
+    }
+
+    /// The settings the world was made with.
+    pub fn config(&self) -> &SimConfig {
+        &self.config
+    }
+
+    /// Steps taken so far.
+    pub fn tick(&self) -> u64 {
+        self.tick
+    }
+
+    /// Whether the entity is in this world.
+    pub fn contains(&self, id: EntityId) -> bool {
+        self.entities.contains_key(&id)
+    }
+
+    /// What the world knows of an entity.
+    pub fn info(&self, id: EntityId) -> Option<&EntityInfo> {
+        self.entities.get(&id).map(|e| &e.info)
+    }
+
+    /// Every entity in the world, in id order.
+    pub fn entities(&self) -> impl Iterator<Item = (EntityId, &EntityInfo)> {
+        self.entities.iter().map(|(id, e)| (*id, &e.info))
+    }
+
+    /// Number of entities in the world.
+    pub fn len(&self) -> usize {
+        self.entities.len()
+    }
+
+    /// Whether the world is empty.
+    pub fn is_empty(&self) -> bool {
+        self.entities.is_empty()
+    }
+
+    /// The contacts that started or stopped in the last step.
+    pub fn contacts(&self) -> &[ContactEvent] {
+        &self.contacts
+    }
+
+    /// Adds an entity with `role`, at the state's pose and velocity.
+    pub fn spawn(&mut self, state: &EntityState, role: BodyRole) -> Result<(), SimError> {
+        validate::state(state)?;
+        if self.entities.contains_key(&state.id) {
+            return Err(SimError::DuplicateEntity(state.id));
+        }
+        let entry = body::insert(&mut self.world, state, role);
+        self.entities.insert(state.id, entry);
+        Ok(())
+    }
+
+    /// Removes an entity; returns its last state. Joints attached to it go with it.
+    pub fn despawn(&mut self, id: EntityId) -> Result<EntityState, SimError> {
+        let state = self.state(id).ok_or(SimError::UnknownEntity(id))?;
+        let entry = self
+            .entities
+            .remove(&id)
+            .ok_or(SimError::UnknownEntity(id))?;
+        self.joints.forget_body(entry.body);
+        self.world.remove_body(entry.body);
+        Ok(state)
+    }
+
+    /// The entity's current state, as its replication would carry it.
+    pub fn state(&self, id: EntityId) -> Option<EntityState> {
+        let entry = self.entities.get(&id)?;
+        Some(body::state_of(&self.world, id, entry, self.tick))
+    }
+
+    /// Changes a body's role in place, keeping its handle, pose and (where Rapier allows)
+    /// velocity: a body made Fixed loses its velocity (Rapier zeroes it); a body made dynamic
+    /// or kinematic keeps the velocity it has, and is woken.
+    pub fn set_role(&mut self, id: EntityId, role: BodyRole) -> Result<(), SimError> {
+        let entry = self
+            .entities
+            .get_mut(&id)
+            .ok_or(SimError::UnknownEntity(id))?;
+        self.world.bodies[entry.body].set_body_type(role.rapier(), true);
+        entry.info.role = role;
+        Ok(())
+    }
+
+    /// Records a new authority for the entity (the proxy layer's authority flips).
+    pub fn set_authority(&mut self, id: EntityId, cluster_id: ClusterId) -> Result<(), SimError> {
+        let entry = self
+            .entities
+            .get_mut(&id)
+            .ok_or(SimError::UnknownEntity(id))?;
+        entry.info.cluster_id = cluster_id;
+        Ok(())
+    }
+
+    /// Moves a body to a replicated state as its role allows: Fixed and dynamic bodies are set
+    /// to the pose and velocity; a kinematic velocity-based body gets the velocity that reaches
+    /// the pose in one step; a kinematic position-based body is moved there by the next step.
+    /// The authority is taken from the state too. Queries see the new pose at once.
+    pub fn apply_state(&mut self, state: &EntityState) -> Result<(), SimError> {
+        validate::state(state)?;
+        let entry = self
+            .entities
+            .get_mut(&state.id)
+            .ok_or(SimError::UnknownEntity(state.id))?;
+        entry.info.cluster_id = state.cluster_id;
+        body::apply_state(&mut self.world, entry, state, self.config.dt);
+        Ok(())
+    }
+
+    /// Applies a write to an entity in this world, whoever owns it (the owner applying routed
+    /// ops uses this). Validated first: an invalid op changes nothing.
+    pub fn apply_op(&mut self, op: &PhysicsOp) -> Result<(), SimError> {
+        validate::op(op)?;
+        let entry = self
+            .entities
+            .get(&op.target())
+            .ok_or(SimError::UnknownEntity(op.target()))?;
+        body::apply_op(&mut self.world, entry, op);
+        Ok(())
+    }
+
+    /// The tick context and the physics handle for user code, borrowing the world together.
+    /// Writes on entities owned by another cluster go to `router`.
+    pub fn tick_scope<'a>(
+        &'a mut self,
+        router: &'a mut dyn WriteRouter,
+    ) -> (TickContext<'a>, PhysicsHandle<'a>) {
+        let context = TickContext {
+            cluster_id: self.config.cluster_id,
+            tick: self.tick,
+            entities: &self.entities,
+            contacts: &self.contacts,
+        };
+        let handle = PhysicsHandle {
+            cluster_id: self.config.cluster_id,
+            world: &mut self.world,
+            entities: &self.entities,
+            joints: &mut self.joints,
+            router,
+        };
+        (context, handle)
+    }
+
+    /// Calls `user` with the tick context and physics handle (see [`Self::tick_scope`]).
+    pub fn run_user<R>(
+        &mut self,
+        router: &mut dyn WriteRouter,
+        user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>) -> R,
+    ) -> R {
+        let (context, mut handle) = self.tick_scope(router);
+        user(&context, &mut handle)
+    }
+
+    /// Advances the world by one step and collects the contacts that started or stopped.
+    pub fn step(&mut self) {
+        self.world.step_with_events(&(), &self.collector);
+        self.collector.drain_into(&mut self.contacts);
+        self.tick += 1;
+    }
+}

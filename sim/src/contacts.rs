@@ -1,0 +1,71 @@
+//! Contact events from Rapier, turned into entity pairs.
+
+use std::sync::Mutex;
+
+use rapier3d::prelude::*;
+
+use crate::wire::EntityId;
+
+/// A contact between two entities that started or stopped during a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ContactEvent {
+    /// One entity of the pair.
+    pub a: EntityId,
+    /// The other.
+    pub b: EntityId,
+    /// `true` when the contact started, `false` when it stopped.
+    pub started: bool,
+}
+
+/// Collects Rapier's collision events during a step. Rapier calls the handler through `&self`,
+/// possibly from several threads, hence the lock; it is uncontended in a single-threaded step.
+#[derive(Default)]
+pub(crate) struct ContactCollector {
+    events: Mutex<Vec<ContactEvent>>,
+}
+
+impl ContactCollector {
+    /// Moves the collected events into `out` (cleared first).
+    pub(crate) fn drain_into(&self, out: &mut Vec<ContactEvent>) {
+        out.clear();
+        if let Ok(mut events) = self.events.lock() {
+            out.append(&mut events);
+        }
+    }
+}
+
+impl EventHandler for ContactCollector {
+    fn handle_collision_event(
+        &self,
+        _bodies: &RigidBodySet,
+        colliders: &ColliderSet,
+        event: CollisionEvent,
+        _contact_pair: Option<&ContactPair>,
+    ) {
+        let (h1, h2) = (event.collider1(), event.collider2());
+        // Colliders carry their entity id as user data. A collider removed during the step
+        // (its entity despawned) can no longer be named and is skipped.
+        let entity = |h: ColliderHandle| colliders.get(h).map(|c| EntityId::from_u128(c.user_data));
+        if let (Some(a), Some(b)) = (entity(h1), entity(h2))
+            && let Ok(mut events) = self.events.lock()
+        {
+            events.push(ContactEvent {
+                a,
+                b,
+                started: event.started(),
+            });
+        }
+    }
+
+    fn handle_contact_force_event(
+        &self,
+        _dt: Real,
+        _bodies: &RigidBodySet,
+        _colliders: &ColliderSet,
+        _contact_pair: &ContactPair,
+        _total_force_magnitude: Real,
+    ) {
+    }
+
+    fn handle_soft_body_tear_event(&self, _soft_bodies: &SoftBodySet, _event: &SoftBodyTearEvent) {}
+}

@@ -1,0 +1,49 @@
+//! The one error type of `seam-sim`.
+
+use crate::wire::EntityId;
+
+/// Why a world operation was refused. A refused operation leaves the world unchanged.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SimError {
+    /// No entity with this id is in this world.
+    #[error("entity {0} is not in this cluster's world")]
+    UnknownEntity(EntityId),
+    /// The entity is already in this world.
+    #[error("entity {0} is already in this cluster's world")]
+    DuplicateEntity(EntityId),
+    /// A value is NaN or infinite.
+    #[error("{what} of entity {entity} is not finite: {value:?}")]
+    NonFinite {
+        /// The entity written to.
+        entity: EntityId,
+        /// Which value.
+        what: &'static str,
+        /// The offending components.
+        value: [f32; 3],
+    },
+    /// A state's rotation is not a unit quaternion.
+    #[error("rotation of entity {entity} is not a unit quaternion: {rotation:?}")]
+    BadRotation {
+        /// The entity.
+        entity: EntityId,
+        /// The quaternion `[x, y, z, w]`.
+        rotation: [f32; 4],
+    },
+    /// A shape dimension or density is not a positive finite number.
+    #[error("shape of entity {entity} is invalid: {reason}")]
+    BadShape {
+        /// The entity.
+        entity: EntityId,
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// The write targets an entity owned by another cluster and no router takes it.
+    #[error("entity {entity} is owned by cluster {owner}; this handle cannot route writes to it")]
+    NotOwned {
+        /// The entity.
+        entity: EntityId,
+        /// Its authority.
+        owner: crate::wire::ClusterId,
+    },
+}

@@ -1,0 +1,310 @@
+//! The wire: what clusters send each other, postcard-encoded behind a format version byte.
+//!
+//! Every frame is `[WIRE_VERSION][postcard body]`. Decoding takes untrusted bytes: it returns a
+//! [`WireError`] rather than panicking, rejects trailing bytes, and grows lists only as elements
+//! actually decode, so a forged length cannot make it allocate more than the input justifies.
+
+mod ids;
+
+pub use ids::{ClusterId, EntityId};
+
+use serde::de::{DeserializeOwned, SeqAccess, Visitor};
+use serde::{Deserialize, Deserializer, Serialize};
+
+/// The format version every frame starts with.
+pub const WIRE_VERSION: u8 = 1;
+
+/// A collision shape, as small as a proxy needs.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Shape {
+    /// A sphere.
+    Ball {
+        /// Radius in metres.
+        radius: f32,
+    },
+    /// A box.
+    Cuboid {
+        /// Half the size along x, y, z, in metres.
+        half_extents: [f32; 3],
+    },
+    /// A capsule along the local y axis.
+    Capsule {
+        /// Half the length of the straight part, in metres.
+        half_height: f32,
+        /// Radius in metres.
+        radius: f32,
+    },
+}
+
+/// What a body is made of beyond its pose: shape, density and whether it needs continuous
+/// collision detection. It travels with every state so a cluster that takes authority over an
+/// entity simulates it with the same mass and CCD as the previous owner.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct BodyShape {
+    /// The collision shape.
+    pub shape: Shape,
+    /// Density in kg/m³ (mass = density × volume).
+    pub density: f32,
+    /// Continuous collision detection, for fast bodies that must not tunnel through thin ones.
+    pub ccd: bool,
+}
+
+/// One entity's replicated state: the spine every neighbour receives.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct EntityState {
+    /// The entity.
+    pub id: EntityId,
+    /// The authority: the cluster that simulates it. Changing it moves the entity.
+    pub cluster_id: ClusterId,
+    /// The authority's tick this state is from.
+    pub tick: u64,
+    /// World position of the body origin, metres.
+    pub position: [f32; 3],
+    /// Orientation as a unit quaternion `[x, y, z, w]`.
+    pub rotation: [f32; 4],
+    /// Linear velocity, m/s.
+    pub linvel: [f32; 3],
+    /// Angular velocity, rad/s.
+    pub angvel: [f32; 3],
+    /// Shape, density, CCD.
+    pub body: BodyShape,
+}
+
+/// A write on an entity, routed to its authority when it is owned elsewhere.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum PhysicsOp {
+    /// Add an impulse (N·s) at the centre of mass.
+    Impulse {
+        /// The entity.
+        target: EntityId,
+        /// Impulse vector.
+        impulse: [f32; 3],
+    },
+    /// Add a force (N) for the next step.
+    Force {
+        /// The entity.
+        target: EntityId,
+        /// Force vector.
+        force: [f32; 3],
+    },
+    /// Add an angular impulse (N·m·s).
+    TorqueImpulse {
+        /// The entity.
+        target: EntityId,
+        /// Angular impulse vector.
+        torque_impulse: [f32; 3],
+    },
+    /// Teleport the body.
+    SetTranslation {
+        /// The entity.
+        target: EntityId,
+        /// New position, metres.
+        translation: [f32; 3],
+    },
+    /// Set the linear velocity.
+    SetLinvel {
+        /// The entity.
+        target: EntityId,
+        /// New linear velocity, m/s.
+        linvel: [f32; 3],
+    },
+    /// Set the angular velocity.
+    SetAngvel {
+        /// The entity.
+        target: EntityId,
+        /// New angular velocity, rad/s.
+        angvel: [f32; 3],
+    },
+    /// Wake the body up.
+    Wake {
+        /// The entity.
+        target: EntityId,
+    },
+    /// Put the body to sleep.
+    Sleep {
+        /// The entity.
+        target: EntityId,
+    },
+}
+
+impl PhysicsOp {
+    /// The entity the op writes to.
+    pub fn target(&self) -> EntityId {
+        match *self {
+            PhysicsOp::Impulse { target, .. }
+            | PhysicsOp::Force { target, .. }
+            | PhysicsOp::TorqueImpulse { target, .. }
+            | PhysicsOp::SetTranslation { target, .. }
+            | PhysicsOp::SetLinvel { target, .. }
+            | PhysicsOp::SetAngvel { target, .. }
+            | PhysicsOp::Wake { target }
+            | PhysicsOp::Sleep { target } => target,
+        }
+    }
+
+    /// The op's vector, if it carries one.
+    pub fn vector(&self) -> Option<[f32; 3]> {
+        match *self {
+            PhysicsOp::Impulse { impulse: v, .. }
+            | PhysicsOp::Force { force: v, .. }
+            | PhysicsOp::TorqueImpulse {
+                torque_impulse: v, ..
+            }
+            | PhysicsOp::SetTranslation { translation: v, .. }
+            | PhysicsOp::SetLinvel { linvel: v, .. }
+            | PhysicsOp::SetAngvel { angvel: v, .. } => Some(v),
+            PhysicsOp::Wake { .. } | PhysicsOp::Sleep { .. } => None,
+        }
+    }
+
+    /// The op's name, for errors and counters.
+    pub fn name(&self) -> &'static str {
+        match self {
+            PhysicsOp::Impulse { .. } => "impulse",
+            PhysicsOp::Force { .. } => "force",
+            PhysicsOp::TorqueImpulse { .. } => "torque impulse",
+            PhysicsOp::SetTranslation { .. } => "set translation",
+            PhysicsOp::SetLinvel { .. } => "set linvel",
+            PhysicsOp::SetAngvel { .. } => "set angvel",
+            PhysicsOp::Wake { .. } => "wake",
+            PhysicsOp::Sleep { .. } => "sleep",
+        }
+    }
+}
+
+/// A contact that started or stopped between two entities.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct ContactReport {
+    /// One entity of the pair.
+    pub a: EntityId,
+    /// The other.
+    pub b: EntityId,
+    /// `true` when the contact started, `false` when it stopped.
+    pub started: bool,
+    /// The reporting cluster's tick whose step saw the change.
+    pub tick: u64,
+}
+
+/// What one cluster publishes on `replication:<cluster_id>` each tick.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReplicationFrame {
+    /// The publishing cluster.
+    pub from: ClusterId,
+    /// Its tick.
+    pub tick: u64,
+    /// The states of the entities it owns (and, in the tick of a hand-off, the entity it gives
+    /// away, already naming its new authority).
+    #[serde(deserialize_with = "grow_as_decoded")]
+    pub states: Vec<EntityState>,
+}
+
+/// What one cluster sends on `physics_events:<destination>` each tick.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PhysicsEventsFrame {
+    /// The sending cluster.
+    pub from: ClusterId,
+    /// Its tick.
+    pub tick: u64,
+    /// Writes on entities the destination owns.
+    #[serde(deserialize_with = "grow_as_decoded")]
+    pub ops: Vec<PhysicsOp>,
+    /// Contacts between the sender's bodies and its proxies of the destination's entities.
+    #[serde(deserialize_with = "grow_as_decoded")]
+    pub contacts: Vec<ContactReport>,
+}
+
+/// Why bytes are not a frame.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum WireError {
+    /// No bytes at all.
+    #[error("empty frame")]
+    Empty,
+    /// The frame is of another format version.
+    #[error("frame format version {found}, this build reads version {WIRE_VERSION}")]
+    Version {
+        /// The version byte found.
+        found: u8,
+    },
+    /// The body does not decode.
+    #[error("malformed frame: {0}")]
+    Malformed(String),
+    /// The body decodes but bytes are left over.
+    #[error("{0} bytes after the end of the frame")]
+    TrailingBytes(usize),
+    /// The destination buffer is too small.
+    #[error("frame needs {needed} bytes, the buffer has {capacity}")]
+    BufferTooSmall {
+        /// Encoded size.
+        needed: usize,
+        /// Buffer size.
+        capacity: usize,
+    },
+}
+
+/// Deserializes a list by pushing elements as they decode: a declared length that the input
+/// cannot back is never used to preallocate.
+fn grow_as_decoded<'de, D, T>(deserializer: D) -> Result<Vec<T>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    struct Grow<T>(std::marker::PhantomData<T>);
+    impl<'de, T: Deserialize<'de>> Visitor<'de> for Grow<T> {
+        type Value = Vec<T>;
+        fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("a list")
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<T>, A::Error> {
+            let mut items = Vec::new();
+            while let Some(item) = seq.next_element()? {
+                items.push(item);
+            }
+            Ok(items)
+        }
+    }
+    deserializer.deserialize_seq(Grow(std::marker::PhantomData))
+}
+
+/// Encoded size of `frame` in bytes, version byte included.
+pub fn encoded_len<T: Serialize>(frame: &T) -> usize {
+    1 + postcard::serialize_with_flavor(frame, postcard::ser_flavors::Size::default()).unwrap_or(0)
+}
+
+/// Encodes `frame` into the start of `buffer` (for example a loaned shared-memory sample);
+/// returns the bytes written.
+pub fn encode_into<T: Serialize>(frame: &T, buffer: &mut [u8]) -> Result<usize, WireError> {
+    let needed = encoded_len(frame);
+    if buffer.len() < needed {
+        return Err(WireError::BufferTooSmall {
+            needed,
+            capacity: buffer.len(),
+        });
+    }
+    buffer[0] = WIRE_VERSION;
+    let body = postcard::to_slice(frame, &mut buffer[1..])
+        .map_err(|e| WireError::Malformed(e.to_string()))?;
+    Ok(1 + body.len())
+}
+
+/// Encodes `frame` into a new buffer.
+pub fn encode<T: Serialize>(frame: &T) -> Vec<u8> {
+    let mut buffer = vec![0; encoded_len(frame)];
+    let written = encode_into(frame, &mut buffer).unwrap_or(0);
+    buffer.truncate(written);
+    buffer
+}
+
+/// Decodes a frame from untrusted bytes.
+pub fn decode<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, WireError> {
+    let (&version, body) = bytes.split_first().ok_or(WireError::Empty)?;
+    if version != WIRE_VERSION {
+        return Err(WireError::Version { found: version });
+    }
+    let (frame, rest) =
+        postcard::take_from_bytes(body).map_err(|e| WireError::Malformed(e.to_string()))?;
+    if !rest.is_empty() {
+        return Err(WireError::TrailingBytes(rest.len()));
+    }
+    Ok(frame)
+}
