@@ -14,7 +14,7 @@ use crate::cluster_sim::EntityInfo;
 use crate::contacts::ContactEvent;
 use crate::error::SimError;
 use crate::validate;
-use crate::wire::{ClusterId, EntityId, PhysicsOp, Shape};
+use crate::wire::{ClusterId, EntityId, IdMap, PhysicsOp, Shape};
 
 /// Takes writes on entities owned by other clusters. The proxy layer implements it to queue the
 /// op for the owner; [`LocalOnly`] refuses them.
@@ -50,7 +50,7 @@ pub enum WriteOutcome {
 pub struct TickContext<'a> {
     pub(crate) cluster_id: ClusterId,
     pub(crate) tick: u64,
-    pub(crate) entities: &'a BTreeMap<EntityId, Entry>,
+    pub(crate) entities: &'a IdMap<EntityId, Entry>,
     pub(crate) contacts: &'a [ContactEvent],
 }
 
@@ -65,7 +65,7 @@ impl TickContext<'_> {
         self.tick
     }
 
-    /// Every entity visible in this world (owned here or proxied), in id order.
+    /// Every entity visible in this world (owned here or proxied), in a deterministic order.
     pub fn entities(&self) -> impl Iterator<Item = (EntityId, &EntityInfo)> {
         self.entities.iter().map(|(id, e)| (*id, &e.info))
     }
@@ -144,7 +144,7 @@ impl Joints {
 pub struct PhysicsHandle<'a> {
     pub(crate) cluster_id: ClusterId,
     pub(crate) world: &'a mut PhysicsWorld,
-    pub(crate) entities: &'a BTreeMap<EntityId, Entry>,
+    pub(crate) entities: &'a IdMap<EntityId, Entry>,
     pub(crate) joints: &'a mut Joints,
     pub(crate) router: &'a mut dyn WriteRouter,
 }

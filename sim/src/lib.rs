@@ -46,8 +46,8 @@
 //! - `validate` — NaN, infinity, rotation and shape checks before anything reaches Rapier.
 //! - `error` — [`SimError`].
 //!
-//! Determinism: Rapier is built with `enhanced-determinism`, and entities are kept in id order,
-//! so the same inputs in the same order give bit-identical worlds.
+//! Determinism: Rapier is built with `enhanced-determinism`, and entities are kept in a map with
+//! a fixed hasher, so the same inputs in the same order give bit-identical worlds.
 
 mod body;
 mod cluster_sim;

@@ -59,6 +59,12 @@ pub(crate) fn body_shape(entity: EntityId, body: &BodyShape) -> Result<(), SimEr
 
 /// Checks a whole state: pose, velocities, shape.
 pub(crate) fn state(state: &EntityState) -> Result<(), SimError> {
+    motion(state)?;
+    body_shape(state.id, &state.body)
+}
+
+/// Checks a state's pose and velocities.
+pub(crate) fn motion(state: &EntityState) -> Result<(), SimError> {
     let id = state.id;
     finite(id, "position", state.position)?;
     finite(id, "linvel", state.linvel)?;
@@ -71,5 +77,5 @@ pub(crate) fn state(state: &EntityState) -> Result<(), SimError> {
             rotation: state.rotation,
         });
     }
-    body_shape(id, &state.body)
+    Ok(())
 }

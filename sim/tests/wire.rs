@@ -26,7 +26,7 @@ fn state(i: u32) -> EntityState {
                 },
             },
             density: 1000.0,
-            ccd: i % 2 == 0,
+            ccd: i.is_multiple_of(2),
         },
     }
 }

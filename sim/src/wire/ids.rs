@@ -6,8 +6,15 @@ use uuid::Uuid;
 macro_rules! uuid_id {
     ($(#[$doc:meta])* $name:ident) => {
         $(#[$doc])*
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
         pub struct $name(pub Uuid);
+
+        // One `write_u128`, so `IdHasher` can hash it in a multiply.
+        impl std::hash::Hash for $name {
+            fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+                state.write_u128(self.0.as_u128());
+            }
+        }
 
         impl $name {
             /// A fresh random id.
@@ -55,3 +62,34 @@ uuid_id!(
     /// One simulation cluster. The cluster an entity's state names is its authority.
     ClusterId
 );
+
+/// A fixed, fast hasher for maps keyed by ids. Ids are UUIDs, random or assigned, so folding the
+/// two halves and multiplying spreads them well; being fixed (unseeded), it keeps map iteration
+/// order the same from run to run, which determinism needs.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct IdHasher(u64);
+
+impl std::hash::Hasher for IdHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write_u128(&mut self, value: u128) {
+        let folded = (value as u64) ^ ((value >> 64) as u64).rotate_left(29);
+        self.0 = (self.0 ^ folded).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        self.0 ^= self.0 >> 32;
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(16) {
+            let mut word = [0u8; 16];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u128(u128::from_le_bytes(word));
+        }
+    }
+}
+
+/// A map keyed by ids, with [`IdHasher`]: entries are stored densely in insertion order behind a
+/// small hash index, so a lookup touches little memory and iteration follows the order entities
+/// were added (deterministic, and cache-friendly for callers that go in that order).
+pub type IdMap<K, V> = indexmap::IndexMap<K, V, std::hash::BuildHasherDefault<IdHasher>>;

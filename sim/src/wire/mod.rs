@@ -5,8 +5,9 @@
 //! actually decode, so a forged length cannot make it allocate more than the input justifies.
 
 mod ids;
+mod state_codec;
 
-pub use ids::{ClusterId, EntityId};
+pub use ids::{ClusterId, EntityId, IdHasher, IdMap};
 
 use serde::de::{DeserializeOwned, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
@@ -49,8 +50,9 @@ pub struct BodyShape {
     pub ccd: bool,
 }
 
-/// One entity's replicated state: the spine every neighbour receives.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// One entity's replicated state: the spine every neighbour receives. Its wire form is in
+/// `state_codec`.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EntityState {
     /// The entity.
     pub id: EntityId,
