@@ -175,10 +175,15 @@ fn seam_tick(sim: &mut ClusterSim, kinematic: &mut [EntityState], tick: &mut u64
 /// Alternates raw and ClusterSim ticks and compares medians, so machine noise falls on both
 /// alike; prints the ratio the target is judged by.
 fn paired_ratio() {
-    const TICKS: usize = 400;
+    const WARMUP: usize = 100;
+    const TICKS: usize = 600;
     let mut raw = raw_world();
     let (mut sim, mut kinematic) = seam_world();
     let mut tick = 0;
+    for _ in 0..WARMUP {
+        raw_tick(&mut raw);
+        seam_tick(&mut sim, &mut kinematic, &mut tick);
+    }
     let (mut raw_times, mut seam_times) = (Vec::new(), Vec::new());
     for _ in 0..TICKS {
         let t = std::time::Instant::now();
@@ -194,8 +199,8 @@ fn paired_ratio() {
     };
     let (raw, seam) = (median(&mut raw_times), median(&mut seam_times));
     eprintln!(
-        "sim_step paired, {TICKS} alternating ticks of {BODIES} bodies: raw Rapier median {:.3} ms, \
-         ClusterSim median {:.3} ms, ClusterSim / raw = {:.3}",
+        "sim_step paired, {TICKS} alternating ticks of {BODIES} bodies after {WARMUP} warm-up: \
+         raw Rapier median {:.3} ms, ClusterSim median {:.3} ms, ClusterSim / raw = {:.3}",
         raw * 1e3,
         seam * 1e3,
         seam / raw
