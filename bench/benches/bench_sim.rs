@@ -30,8 +30,29 @@ fn grid(i: usize) -> [f32; 3] {
     ]
 }
 
+/// How dynamic and kinematic bodies are laid out in spawn order.
+#[derive(Clone, Copy)]
+enum Order {
+    /// Dynamic, kinematic, dynamic, … (a mixed world).
+    Interleaved,
+    /// All kinematic first, then all dynamic (the proxies of one neighbour, spawned from one
+    /// frame, then updated in that frame's order).
+    Contiguous,
+}
+
+fn is_dynamic(i: usize, order: Order) -> bool {
+    match order {
+        Order::Interleaved => i.is_multiple_of(2),
+        Order::Contiguous => i >= BODIES / 2,
+    }
+}
+
 fn state(i: usize) -> EntityState {
-    let dynamic = i.is_multiple_of(2);
+    state_in(i, Order::Interleaved)
+}
+
+fn state_in(i: usize, order: Order) -> EntityState {
+    let dynamic = is_dynamic(i, order);
     EntityState {
         id: EntityId::from_u128(i as u128 + 1),
         cluster_id: HERE,
@@ -95,13 +116,13 @@ impl EventHandler for Collector {
     fn handle_soft_body_tear_event(&self, _: &SoftBodySet, _: &SoftBodyTearEvent) {}
 }
 
-fn raw_world() -> Raw {
+fn raw_world(order: Order) -> Raw {
     let mut world = PhysicsWorld::new();
     world.integration_parameters.dt = 1.0 / 60.0;
     let mut kinematic = Vec::new();
     for i in 0..BODIES {
-        let s = state(i);
-        let dynamic = i.is_multiple_of(2);
+        let s = state_in(i, order);
+        let dynamic = is_dynamic(i, order);
         let body = RigidBodyBuilder::new(if dynamic {
             RigidBodyType::Dynamic
         } else {
@@ -147,26 +168,26 @@ fn raw_tick(raw: &mut Raw) {
     }
 }
 
-fn seam_world() -> (ClusterSim, Vec<EntityState>) {
+fn seam_world(order: Order) -> (ClusterSim, Vec<(usize, EntityState)>) {
     let mut sim = ClusterSim::new(SimConfig::new(HERE));
     let mut kinematic = Vec::new();
     for i in 0..BODIES {
-        let s = state(i);
-        if i.is_multiple_of(2) {
+        let s = state_in(i, order);
+        if is_dynamic(i, order) {
             sim.spawn(&s, BodyRole::Dynamic).expect("spawn");
         } else {
             sim.spawn(&s, BodyRole::KinematicPositionBased)
                 .expect("spawn");
-            kinematic.push(s);
+            kinematic.push((i, s));
         }
     }
     (sim, kinematic)
 }
 
-fn seam_tick(sim: &mut ClusterSim, kinematic: &mut [EntityState], tick: &mut u64) {
+fn seam_tick(sim: &mut ClusterSim, kinematic: &mut [(usize, EntityState)], tick: &mut u64) {
     *tick += 1;
-    for (k, state) in kinematic.iter_mut().enumerate() {
-        state.position = kinematic_target(2 * k + 1, *tick);
+    for (i, state) in kinematic.iter_mut() {
+        state.position = kinematic_target(*i, *tick);
         sim.apply_state(state).expect("move");
     }
     sim.step();
@@ -174,11 +195,11 @@ fn seam_tick(sim: &mut ClusterSim, kinematic: &mut [EntityState], tick: &mut u64
 
 /// Alternates raw and ClusterSim ticks and compares medians, so machine noise falls on both
 /// alike; prints the ratio the target is judged by.
-fn paired_ratio() {
+fn paired_ratio(order: Order, name: &str) {
     const WARMUP: usize = 100;
     const TICKS: usize = 600;
-    let mut raw = raw_world();
-    let (mut sim, mut kinematic) = seam_world();
+    let mut raw = raw_world(order);
+    let (mut sim, mut kinematic) = seam_world(order);
     let mut tick = 0;
     for _ in 0..WARMUP {
         raw_tick(&mut raw);
@@ -199,7 +220,7 @@ fn paired_ratio() {
     };
     let (raw, seam) = (median(&mut raw_times), median(&mut seam_times));
     eprintln!(
-        "sim_step paired, {TICKS} alternating ticks of {BODIES} bodies after {WARMUP} warm-up: \
+        "sim_step paired ({name}), {TICKS} alternating ticks of {BODIES} bodies after {WARMUP} warm-up: \
          raw Rapier median {:.3} ms, ClusterSim median {:.3} ms, ClusterSim / raw = {:.3}",
         raw * 1e3,
         seam * 1e3,
@@ -208,14 +229,15 @@ fn paired_ratio() {
 }
 
 fn sim_step(c: &mut Criterion) {
-    paired_ratio();
+    paired_ratio(Order::Interleaved, "interleaved spawn order");
+    paired_ratio(Order::Contiguous, "kinematic bodies spawned together");
     let mut group = c.benchmark_group("sim_step_10k");
     group
         .sample_size(30)
         .measurement_time(Duration::from_secs(10));
-    let mut raw = raw_world();
+    let mut raw = raw_world(Order::Interleaved);
     group.bench_function("raw_rapier", |b| b.iter(|| raw_tick(&mut raw)));
-    let (mut sim, mut kinematic) = seam_world();
+    let (mut sim, mut kinematic) = seam_world(Order::Interleaved);
     let mut tick = 0;
     group.bench_function("cluster_sim", |b| {
         b.iter(|| seam_tick(&mut sim, &mut kinematic, &mut tick))

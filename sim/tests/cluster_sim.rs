@@ -542,3 +542,42 @@ fn same_inputs_give_bit_identical_worlds() {
     assert_eq!(first.len(), 201);
     assert!(first == second, "two runs of the same scene differ");
 }
+
+#[test]
+fn states_land_on_the_right_entity_in_any_order() {
+    let mut sim = sim();
+    for i in 0..20u128 {
+        sim.spawn(
+            &ball(i + 1, THERE, [i as f32, 0.0, 0.0], 0.5),
+            BodyRole::Fixed,
+        )
+        .expect("proxy");
+    }
+    // Despawns move the last entries into the gaps.
+    for gone in [3u128, 11, 20] {
+        sim.despawn(EntityId::from_u128(gone)).expect("despawn");
+    }
+    let order = [
+        17u128, 1, 2, 19, 5, 4, 6, 7, 12, 8, 9, 10, 13, 14, 15, 16, 18,
+    ];
+    for round in 0..3 {
+        for &i in &order {
+            let mut state = ball(i, THERE, [0.0; 3], 0.5);
+            state.position = [i as f32 * 10.0 + round as f32, 1.0, 0.0];
+            sim.apply_state(&state).expect("apply");
+        }
+        for &i in &order {
+            let position = sim.state(EntityId::from_u128(i)).expect("there").position;
+            assert_eq!(
+                position,
+                [i as f32 * 10.0 + round as f32, 1.0, 0.0],
+                "entity {i}"
+            );
+        }
+    }
+    let gone = ball(3, THERE, [0.0; 3], 0.5);
+    assert_eq!(
+        sim.apply_state(&gone),
+        Err(SimError::UnknownEntity(gone.id))
+    );
+}
