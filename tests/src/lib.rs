@@ -17,6 +17,30 @@ use std::time::{Duration, Instant};
 
 use seam_transport::{Backend, OwnedMessage, Transport};
 
+/// Writes each listed test function once per backend: `backend_tests!([shm: Shm, redis: Redis],
+/// [round_trip, …])` makes `shm::round_trip` and `redis::round_trip`, each calling
+/// `round_trip(&TestContext)` (a test the context says to skip returns at once).
+#[macro_export]
+macro_rules! backend_tests {
+    ([$($module:ident: $backend:ident),+ $(,)?], $tests:tt) => {
+        $( $crate::backend_tests!(@module $module $backend $tests); )+
+    };
+    (@module $module:ident $backend:ident [$($test:ident),+ $(,)?]) => {
+        mod $module {
+            $(
+                #[test]
+                fn $test() {
+                    if let Some(ctx) =
+                        $crate::TestContext::new(::seam_transport::Backend::$backend)
+                    {
+                        super::$test(&ctx)
+                    }
+                }
+            )+
+        }
+    };
+}
+
 /// Where Redis tests connect unless `SEAM_REDIS_URL` says otherwise.
 pub const DEFAULT_REDIS_URL: &str = "redis://127.0.0.1:6379";
 

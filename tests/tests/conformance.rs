@@ -5,22 +5,9 @@ use std::time::Duration;
 use seam_tests::{PATIENCE, SILENCE, TestContext, publish_until_received, receive};
 use seam_transport::{Backend, ChannelError, PublishError, SubscribeError};
 
-macro_rules! conformance {
-    ($($test:ident),* $(,)?) => {
-        mod shm { $( #[test] fn $test() {
-            if let Some(ctx) = super::TestContext::new(super::Backend::Shm) { super::$test(&ctx) }
-        } )* }
-        mod local { $( #[test] fn $test() {
-            if let Some(ctx) = super::TestContext::new(super::Backend::Local) { super::$test(&ctx) }
-        } )* }
-        mod redis { $( #[test] fn $test() {
-            if let Some(ctx) = super::TestContext::new(super::Backend::Redis) { super::$test(&ctx) }
-        } )* }
-    };
-}
-
-conformance!(
-    round_trip,
+seam_tests::backend_tests!(
+    [shm: Shm, local: Local, redis: Redis],
+    [round_trip,
     receiver_counts,
     unsubscribe_stops_delivery,
     pattern_subscriptions,
@@ -32,7 +19,7 @@ conformance!(
     bad_input_rejected,
     writer_errors,
     receive_waits_without_spinning,
-    wakes_on_publish_from_another_thread,
+    wakes_on_publish_from_another_thread]
 );
 
 fn round_trip(ctx: &TestContext) {

@@ -8,18 +8,11 @@ use seam_transport::Backend;
 
 const PEER: &str = env!("CARGO_BIN_EXE_seam-test-peer");
 
-macro_rules! across_processes {
-    ($($test:ident),* $(,)?) => {
-        mod shm { $( #[test] fn $test() {
-            if let Some(ctx) = super::TestContext::new(super::Backend::Shm) { super::$test(&ctx) }
-        } )* }
-        mod redis { $( #[test] fn $test() {
-            if let Some(ctx) = super::TestContext::new(super::Backend::Redis) { super::$test(&ctx) }
-        } )* }
-    };
-}
-
-across_processes!(echo_round_trips, publishers_in_two_processes);
+seam_tests::backend_tests!(
+    [shm: Shm, redis: Redis],
+    [echo_round_trips,
+    publishers_in_two_processes]
+);
 
 fn echo_round_trips(ctx: &TestContext) {
     let mut transport = ctx.open();
