@@ -154,6 +154,12 @@ impl ClusterSim {
         &self.contacts
     }
 
+    /// Adds contact events that happened elsewhere (a neighbour's body touching this cluster's
+    /// proxy there) to those of the last step, so user code sees them this tick.
+    pub fn add_contacts(&mut self, events: impl IntoIterator<Item = ContactEvent>) {
+        self.contacts.extend(events);
+    }
+
     /// Adds an entity with `role`, at the state's pose and velocity.
     pub fn spawn(&mut self, state: &EntityState, role: BodyRole) -> Result<(), SimError> {
         validate::state(state)?;

@@ -1,0 +1,527 @@
+//! [`Cluster`]: one cluster's world joined to a transport, ticking through the three layers.
+
+use std::time::{Duration, Instant};
+
+use seam_sim::wire::{
+    self, ClusterId, ContactReport, EntityId, EntityState, IdMap, PhysicsEventsFrame, PhysicsOp,
+    ReplicationFrame,
+};
+use seam_sim::{
+    BodyRole, ClusterSim, ContactEvent, PhysicsHandle, SimConfig, SimError, TickContext,
+    WriteRouter,
+};
+use seam_transport::Transport;
+
+use crate::channels::{self, Channel};
+use crate::config::{ClusterConfig, CustomProxy, ProxyMode};
+use crate::error::ClusterError;
+use crate::inbox::{Inbox, TickFrames};
+use crate::stats::ClusterStats;
+
+/// Writes on remote-owned entities, queued by owner until the tick publishes.
+struct Outbox<'a> {
+    neighbours: &'a [ClusterId],
+    ops: &'a mut IdMap<ClusterId, Vec<PhysicsOp>>,
+}
+
+impl WriteRouter for Outbox<'_> {
+    fn route(&mut self, owner: ClusterId, op: PhysicsOp) -> Result<(), SimError> {
+        if !self.neighbours.contains(&owner) {
+            return Err(SimError::NotOwned {
+                entity: op.target(),
+                owner,
+            });
+        }
+        self.ops.entry(owner).or_default().push(op);
+        Ok(())
+    }
+}
+
+/// One simulation cluster: its world, its transport, and the three cross-cluster layers.
+pub struct Cluster {
+    config: ClusterConfig,
+    sim: ClusterSim,
+    transport: Box<dyn Transport>,
+    inbox: Inbox,
+    /// Routed writes by destination, for this tick's publish.
+    outgoing_ops: IdMap<ClusterId, Vec<PhysicsOp>>,
+    /// Contacts with proxies, by the proxy's owner, for this tick's publish.
+    outgoing_contacts: IdMap<ClusterId, Vec<ContactReport>>,
+    /// Entities to hand over at the next replication frame, and to whom.
+    transfers: IdMap<EntityId, ClusterId>,
+    /// Entities handed over, with the tick of the frame that did it: until the new owner's
+    /// frames are newer than that, their silence about the entity is not a departure.
+    handed: IdMap<EntityId, u64>,
+    custom_proxy: Option<Box<dyn CustomProxy>>,
+    replication_channel: String,
+    stats: ClusterStats,
+}
+
+impl Cluster {
+    /// Opens the transport the configuration names and subscribes to the neighbours.
+    pub fn new(config: ClusterConfig) -> Result<Self, ClusterError> {
+        let transport = seam_transport::open(&config.transport)?;
+        Self::with_transport(config, transport)
+    }
+
+    /// A cluster on a transport opened by the caller.
+    pub fn with_transport(
+        config: ClusterConfig,
+        mut transport: Box<dyn Transport>,
+    ) -> Result<Self, ClusterError> {
+        for &neighbour in &config.neighbours {
+            transport.subscribe(&channels::replication(neighbour))?;
+        }
+        transport.subscribe(&channels::physics_events(config.cluster_id))?;
+        let sim = ClusterSim::new(SimConfig {
+            cluster_id: config.cluster_id,
+            dt: config.dt,
+            gravity: config.gravity,
+            max_linear_velocity: config.max_linear_velocity,
+        });
+        Ok(Self {
+            replication_channel: channels::replication(config.cluster_id),
+            config,
+            sim,
+            transport,
+            inbox: Inbox::default(),
+            outgoing_ops: IdMap::default(),
+            outgoing_contacts: IdMap::default(),
+            transfers: IdMap::default(),
+            handed: IdMap::default(),
+            custom_proxy: None,
+            stats: ClusterStats::default(),
+        })
+    }
+
+    /// This cluster's id.
+    pub fn id(&self) -> ClusterId {
+        self.config.cluster_id
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ClusterConfig {
+        &self.config
+    }
+
+    /// The world, to read (states, roles, contacts).
+    pub fn sim(&self) -> &ClusterSim {
+        &self.sim
+    }
+
+    /// What the cluster has counted.
+    pub fn stats(&self) -> ClusterStats {
+        self.stats
+    }
+
+    /// What the transport has counted.
+    pub fn transport_stats(&self) -> seam_transport::Stats {
+        self.transport.stats()
+    }
+
+    /// Sets the hook that moves proxies in [`ProxyMode::Custom`].
+    pub fn set_custom_proxy(&mut self, proxy: Box<dyn CustomProxy>) {
+        self.custom_proxy = Some(proxy);
+    }
+
+    /// Adds an entity this cluster owns, with `role` (dynamic for what it simulates; Fixed or
+    /// kinematic for scenery it moves itself). Its state's `cluster_id` is set to this cluster.
+    pub fn spawn_owned(&mut self, state: &EntityState, role: BodyRole) -> Result<(), ClusterError> {
+        let state = EntityState {
+            cluster_id: self.id(),
+            ..*state
+        };
+        self.sim.spawn(&state, role)?;
+        Ok(())
+    }
+
+    /// Hands an entity this cluster owns to a neighbour. It happens at the next replication
+    /// frame: that frame carries the entity's final pose and velocity with the new owner, this
+    /// cluster turns its body into a proxy, and the new owner turns its proxy into the body.
+    pub fn transfer_authority(
+        &mut self,
+        entity: EntityId,
+        to: ClusterId,
+    ) -> Result<(), ClusterError> {
+        let refuse = |reason| ClusterError::Transfer { entity, to, reason };
+        let info = self.sim.info(entity).ok_or(refuse("not in this world"))?;
+        if info.cluster_id != self.id() {
+            return Err(refuse("not owned by this cluster"));
+        }
+        if to == self.id() {
+            return Err(refuse("already owned here"));
+        }
+        if !self.config.neighbours.contains(&to) {
+            return Err(refuse("not a neighbour"));
+        }
+        self.transfers.insert(entity, to);
+        Ok(())
+    }
+
+    /// One tick using whatever has arrived (free-running pods).
+    pub fn tick(
+        &mut self,
+        user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
+    ) -> Result<(), ClusterError> {
+        self.drain()?;
+        let frames = self.inbox.take_all();
+        self.run(frames, user)
+    }
+
+    /// One tick in lock-step: waits (up to `timeout`) until every neighbour's frames from the
+    /// same tick have arrived, and uses exactly those, so runs are deterministic on any
+    /// transport.
+    pub fn tick_lockstep(
+        &mut self,
+        timeout: Duration,
+        user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
+    ) -> Result<(), ClusterError> {
+        let tick = self.sim.tick();
+        if tick > 0 {
+            let replication = tick.is_multiple_of(self.config.replication_interval);
+            let deadline = Instant::now() + timeout;
+            self.drain()?;
+            while let Some((neighbour, what)) =
+                self.inbox
+                    .missing(tick, &self.config.neighbours, replication)
+            {
+                let now = Instant::now();
+                if now >= deadline {
+                    return Err(ClusterError::NeighbourSilent {
+                        neighbour,
+                        what,
+                        tick,
+                        waited_ms: timeout.as_millis() as u64,
+                    });
+                }
+                if let Some(message) = self.transport.receive_timeout(deadline - now)? {
+                    let (channel, payload) = (message.channel.to_owned(), message.payload.to_vec());
+                    self.accept(&channel, &payload);
+                }
+                self.drain()?;
+            }
+        }
+        let frames = self.inbox.take_tick(tick, &self.config.neighbours);
+        self.run(frames, user)
+    }
+
+    /// Moves everything the transport holds into the inbox.
+    fn drain(&mut self) -> Result<(), ClusterError> {
+        while let Some(message) = self.transport.try_receive()? {
+            // Decoded straight from the received bytes (on shm, the shared-memory sample).
+            let frame = decode_frame(message.channel, message.payload);
+            self.file(frame);
+        }
+        Ok(())
+    }
+
+    fn accept(&mut self, channel: &str, payload: &[u8]) {
+        let frame = decode_frame(channel, payload);
+        self.file(frame);
+    }
+
+    fn file(&mut self, frame: Option<Frame>) {
+        match frame {
+            Some(Frame::Replication(frame)) if self.config.neighbours.contains(&frame.from) => {
+                self.inbox.add_replication(frame)
+            }
+            Some(Frame::Events(frame)) if self.config.neighbours.contains(&frame.from) => {
+                self.inbox.add_events(frame)
+            }
+            _ => self.stats.frames_malformed += 1,
+        }
+    }
+
+    fn run(
+        &mut self,
+        frames: TickFrames,
+        user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
+    ) -> Result<(), ClusterError> {
+        // Reconcile the world with what the neighbours replicated.
+        for frame in &frames.replication {
+            self.reconcile(frame);
+        }
+        let reported = frames
+            .events
+            .iter()
+            .flat_map(|f| &f.contacts)
+            .map(|c| ContactEvent {
+                a: c.a,
+                b: c.b,
+                started: c.started,
+            });
+        let before = self.sim.contacts().len();
+        self.sim.add_contacts(reported);
+        self.stats.contacts_received += (self.sim.contacts().len() - before) as u64;
+
+        // User code; writes on remote-owned entities go to the outbox.
+        let mut outbox = Outbox {
+            neighbours: &self.config.neighbours,
+            ops: &mut self.outgoing_ops,
+        };
+        self.sim.run_user(&mut outbox, user);
+
+        // Routed writes received, applied just before the step.
+        for op in frames.events.iter().flat_map(|f| &f.ops) {
+            match self.sim.info(op.target()) {
+                Some(info) if info.cluster_id == self.config.cluster_id => {
+                    match self.sim.apply_op(op) {
+                        Ok(()) => self.stats.ops_applied += 1,
+                        Err(_) => self.stats.ops_dropped_invalid += 1,
+                    }
+                }
+                _ => self.stats.ops_dropped_not_owner += 1,
+            }
+        }
+
+        self.sim.step();
+        self.report_contacts();
+        self.publish()?;
+        self.stats.ticks += 1;
+        Ok(())
+    }
+
+    fn proxy_role(&self) -> BodyRole {
+        match self.config.proxy_mode {
+            ProxyMode::Fixed => BodyRole::Fixed,
+            ProxyMode::KinematicVelocityBased => BodyRole::KinematicVelocityBased,
+            ProxyMode::Custom => BodyRole::KinematicPositionBased,
+        }
+    }
+
+    fn visible(&self, state: &EntityState) -> bool {
+        self.config
+            .region
+            .contains_within(state.position, self.config.spread)
+    }
+
+    /// Brings the world in line with one neighbour's replication frame.
+    fn reconcile(&mut self, frame: &ReplicationFrame) {
+        let (me, from) = (self.config.cluster_id, frame.from);
+        let mut listed: IdMap<EntityId, ()> = IdMap::default();
+        for state in &frame.states {
+            let known_owner = self.sim.info(state.id).map(|i| i.cluster_id);
+            let outcome = match known_owner {
+                // Only an entity's owner speaks for it: a frame claiming another cluster's
+                // (or this cluster's) entity is ignored.
+                Some(owner) if owner != from => Err(()),
+                Some(_) => {
+                    listed.insert(state.id, ());
+                    self.update_known(state, from)
+                }
+                None if state.cluster_id == me => self.take_over_unseen(state),
+                None if state.cluster_id == from && self.visible(state) => {
+                    listed.insert(state.id, ());
+                    let role = self.proxy_role();
+                    self.sim
+                        .spawn(state, role)
+                        .map(|()| self.stats.proxies_spawned += 1)
+                        .map_err(|_| ())
+                }
+                None => Ok(()),
+            };
+            if outcome.is_err() {
+                self.stats.states_rejected += 1;
+            }
+        }
+        // Proxies of this neighbour that its frame no longer lists have left (or were
+        // destroyed): nothing else is modelled.
+        let departed: Vec<EntityId> = self
+            .sim
+            .entities()
+            .filter(|(id, info)| info.cluster_id == from && !listed.contains_key(id))
+            .filter(|(id, _)| self.handed.get(id).is_none_or(|&at| frame.tick > at))
+            .map(|(id, _)| id)
+            .collect();
+        let tick = frame.tick;
+        self.handed.retain(|id, &mut at| {
+            // Forget hand-offs the new owner has answered (listed, or had the chance to).
+            !(listed.contains_key(id) || tick > at)
+        });
+        for id in departed {
+            if self.sim.despawn(id).is_ok() {
+                self.stats.proxies_despawned += 1;
+            }
+        }
+    }
+
+    /// A state from the current owner of an entity this world already has.
+    fn update_known(&mut self, state: &EntityState, from: ClusterId) -> Result<(), ()> {
+        let me = self.config.cluster_id;
+        if state.cluster_id == me {
+            // Handed to this cluster: the proxy becomes the body, in place, with the final pose
+            // and velocity the old owner sent.
+            self.sim
+                .set_role(state.id, BodyRole::Dynamic)
+                .map_err(|_| ())?;
+            self.sim.apply_state(state).map_err(|_| ())?;
+            self.stats.handoffs_in += 1;
+            return Ok(());
+        }
+        if state.cluster_id != from {
+            // Handed to a third cluster: writes are routed there from now on.
+            self.sim
+                .set_authority(state.id, state.cluster_id)
+                .map_err(|_| ())?;
+        }
+        if !self.visible(state) {
+            self.sim.despawn(state.id).map_err(|_| ())?;
+            self.stats.proxies_despawned += 1;
+            return Ok(());
+        }
+        self.update_proxy(state)
+    }
+
+    /// Handed to this cluster an entity it had no proxy of: it starts as the body.
+    fn take_over_unseen(&mut self, state: &EntityState) -> Result<(), ()> {
+        self.sim.spawn(state, BodyRole::Dynamic).map_err(|_| ())?;
+        self.stats.handoffs_in += 1;
+        Ok(())
+    }
+
+    fn update_proxy(&mut self, state: &EntityState) -> Result<(), ()> {
+        match self.config.proxy_mode {
+            ProxyMode::Fixed => self.sim.apply_state(state).map_err(|_| ()),
+            ProxyMode::KinematicVelocityBased => {
+                // Aim where the entity will be at the next update, so the proxy moves with it in
+                // between (dead reckoning): the velocity that covers the way there in the
+                // ticks until then, expressed as the point one tick along it.
+                let current = self.sim.state(state.id).ok_or(())?.position;
+                let ticks = self.config.replication_interval.max(1) as f32;
+                let ahead = self.config.dt * ticks;
+                let mut aim = *state;
+                for ((aim, now), (at, v)) in aim
+                    .position
+                    .iter_mut()
+                    .zip(current)
+                    .zip(state.position.iter().zip(state.linvel))
+                {
+                    let goal = at + v * ahead;
+                    *aim = now + (goal - now) / ticks;
+                }
+                self.sim.apply_state(&aim).map_err(|_| ())
+            }
+            ProxyMode::Custom => match self.custom_proxy.as_mut() {
+                Some(proxy) => proxy.update(&mut self.sim, state).map_err(|_| ()),
+                None => self.sim.apply_state(state).map_err(|_| ()),
+            },
+        }
+    }
+
+    /// Contacts of the last step between a body owned here and a proxy go to the proxy's owner.
+    fn report_contacts(&mut self) {
+        let me = self.config.cluster_id;
+        let tick = self.sim.tick();
+        for contact in self.sim.contacts() {
+            let owner = |id| self.sim.info(id).map(|i| i.cluster_id);
+            let (Some(owner_a), Some(owner_b)) = (owner(contact.a), owner(contact.b)) else {
+                continue;
+            };
+            let destination = match (owner_a == me, owner_b == me) {
+                (true, false) => owner_b,
+                (false, true) => owner_a,
+                _ => continue,
+            };
+            self.outgoing_contacts
+                .entry(destination)
+                .or_default()
+                .push(ContactReport {
+                    a: contact.a,
+                    b: contact.b,
+                    started: contact.started,
+                    tick,
+                });
+            self.stats.contacts_sent += 1;
+        }
+    }
+
+    /// Publishes this tick's replication frame (every `replication_interval` ticks, with any
+    /// hand-offs) and one events frame per neighbour.
+    fn publish(&mut self) -> Result<(), ClusterError> {
+        let me = self.config.cluster_id;
+        let tick = self.sim.tick();
+        if tick.is_multiple_of(self.config.replication_interval) {
+            let mut states: Vec<EntityState> = self
+                .sim
+                .entities()
+                .filter(|(_, info)| info.cluster_id == me)
+                .filter_map(|(id, _)| self.sim.state(id))
+                .collect();
+            for state in &mut states {
+                if let Some(&to) = self.transfers.get(&state.id) {
+                    // The new owner rides with the final pose and velocity, read before the body
+                    // becomes a proxy (a Fixed body loses its velocity).
+                    state.cluster_id = to;
+                }
+            }
+            let frame = ReplicationFrame {
+                from: me,
+                tick,
+                states,
+            };
+            publish_frame(self.transport.as_mut(), &self.replication_channel, &frame)?;
+            let role = self.proxy_role();
+            for (entity, to) in std::mem::take(&mut self.transfers) {
+                self.sim.set_authority(entity, to)?;
+                self.sim.set_role(entity, role)?;
+                self.handed.insert(entity, tick);
+                self.stats.handoffs_out += 1;
+            }
+        }
+        for i in 0..self.config.neighbours.len() {
+            let neighbour = self.config.neighbours[i];
+            let frame = PhysicsEventsFrame {
+                from: me,
+                tick,
+                ops: self
+                    .outgoing_ops
+                    .get_mut(&neighbour)
+                    .map(std::mem::take)
+                    .unwrap_or_default(),
+                contacts: self
+                    .outgoing_contacts
+                    .get_mut(&neighbour)
+                    .map(std::mem::take)
+                    .unwrap_or_default(),
+            };
+            self.stats.ops_routed += frame.ops.len() as u64;
+            publish_frame(
+                self.transport.as_mut(),
+                &channels::physics_events(neighbour),
+                &frame,
+            )?;
+        }
+        Ok(())
+    }
+}
+
+enum Frame {
+    Replication(ReplicationFrame),
+    Events(PhysicsEventsFrame),
+}
+
+/// Decodes a received frame; `None` for bytes that are not a frame of the channel's kind, or a
+/// frame whose sender is not the cluster the channel names.
+fn decode_frame(channel: &str, payload: &[u8]) -> Option<Frame> {
+    match channels::parse(channel)? {
+        Channel::Replication(from) => wire::decode::<ReplicationFrame>(payload)
+            .ok()
+            .filter(|f| f.from == from)
+            .map(Frame::Replication),
+        Channel::PhysicsEvents(_) => wire::decode::<PhysicsEventsFrame>(payload)
+            .ok()
+            .map(Frame::Events),
+    }
+}
+
+/// Encodes `frame` straight into the transport's buffer (on shm, the loaned sample).
+fn publish_frame<T: serde::Serialize>(
+    transport: &mut dyn Transport,
+    channel: &str,
+    frame: &T,
+) -> Result<usize, ClusterError> {
+    let len = wire::encoded_len(frame);
+    Ok(transport.publish_with(channel, len, &mut |buffer| {
+        wire::encode_into(frame, buffer).ok()
+    })?)
+}

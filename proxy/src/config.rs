@@ -1,0 +1,89 @@
+//! What a cluster is told at start.
+
+use seam_sim::wire::{ClusterId, EntityState};
+use seam_sim::{ClusterSim, SimError};
+
+/// An axis-aligned box of the world, metres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Region {
+    /// Lowest corner.
+    pub min: [f32; 3],
+    /// Highest corner.
+    pub max: [f32; 3],
+}
+
+impl Region {
+    /// Everything.
+    pub const EVERYWHERE: Region = Region {
+        min: [f32::NEG_INFINITY; 3],
+        max: [f32::INFINITY; 3],
+    };
+
+    /// Whether `point` lies within the region grown by `margin` on every side.
+    pub fn contains_within(&self, point: [f32; 3], margin: f32) -> bool {
+        (0..3).all(|i| point[i] >= self.min[i] - margin && point[i] <= self.max[i] + margin)
+    }
+}
+
+/// How a cluster models neighbour entities.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ProxyMode {
+    /// A Fixed body set to each replicated pose: exact at updates, still in between.
+    #[default]
+    Fixed,
+    /// A kinematic body given the velocity that reaches each replicated pose one tick later:
+    /// moves between updates, so contacts and queries see it where it is heading.
+    KinematicVelocityBased,
+    /// A kinematic position-based body moved by a [`CustomProxy`].
+    Custom,
+}
+
+/// Moves proxies in [`ProxyMode::Custom`].
+pub trait CustomProxy {
+    /// Brings the proxy of `state.id` in `sim` to the replicated `state`.
+    fn update(&mut self, sim: &mut ClusterSim, state: &EntityState) -> Result<(), SimError>;
+}
+
+/// A cluster's configuration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClusterConfig {
+    /// This cluster.
+    pub cluster_id: ClusterId,
+    /// The clusters whose entities this one may see and write to.
+    pub neighbours: Vec<ClusterId>,
+    /// The part of the world this cluster observes.
+    pub region: Region,
+    /// How far beyond the region neighbour entities are still modelled, metres.
+    pub spread: f32,
+    /// How neighbour entities are modelled.
+    pub proxy_mode: ProxyMode,
+    /// Step length, seconds.
+    pub dt: f32,
+    /// A replication frame every this many ticks (1: every tick).
+    pub replication_interval: u64,
+    /// Largest linear speed a body may have, m/s (see `seam_sim::SimConfig`).
+    pub max_linear_velocity: f32,
+    /// Gravity, m/s².
+    pub gravity: [f32; 3],
+    /// Transport URL: `shm`, `local` or `redis://…`.
+    pub transport: String,
+}
+
+impl ClusterConfig {
+    /// A cluster observing everything, with Fixed proxies, 60 Hz, replication every tick.
+    pub fn new(cluster_id: ClusterId, neighbours: Vec<ClusterId>, transport: &str) -> Self {
+        let sim = seam_sim::SimConfig::new(cluster_id);
+        Self {
+            cluster_id,
+            neighbours,
+            region: Region::EVERYWHERE,
+            spread: 0.0,
+            proxy_mode: ProxyMode::Fixed,
+            dt: sim.dt,
+            replication_interval: 1,
+            max_linear_velocity: sim.max_linear_velocity,
+            gravity: sim.gravity,
+            transport: transport.to_owned(),
+        }
+    }
+}

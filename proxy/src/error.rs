@@ -1,0 +1,50 @@
+//! The one error type of `seam-proxy`.
+
+use seam_sim::SimError;
+use seam_sim::wire::ClusterId;
+use seam_transport::{OpenError, PublishError, ReceiveError, SubscribeError};
+
+/// Why a cluster could not start or finish a tick.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ClusterError {
+    /// The transport could not be opened.
+    #[error("cannot open the transport: {0}")]
+    Open(#[from] OpenError),
+    /// A subscription failed.
+    #[error("cannot subscribe: {0}")]
+    Subscribe(#[from] SubscribeError),
+    /// A frame could not be published.
+    #[error("cannot publish: {0}")]
+    Publish(#[from] PublishError),
+    /// Receiving failed.
+    #[error("cannot receive: {0}")]
+    Receive(#[from] ReceiveError),
+    /// The world refused an operation of this cluster's own making.
+    #[error("world: {0}")]
+    Sim(#[from] SimError),
+    /// In lock-step, a neighbour's frames for the tick did not arrive in time.
+    #[error(
+        "neighbour {neighbour} sent no {what} frame for tick {tick} within {waited_ms} ms: is it running?"
+    )]
+    NeighbourSilent {
+        /// The neighbour.
+        neighbour: ClusterId,
+        /// `replication` or `physics_events`.
+        what: &'static str,
+        /// The tick waited for.
+        tick: u64,
+        /// How long it waited.
+        waited_ms: u64,
+    },
+    /// The entity cannot be handed over (not owned here, or to itself).
+    #[error("cannot hand entity {entity} to {to}: {reason}")]
+    Transfer {
+        /// The entity.
+        entity: seam_sim::wire::EntityId,
+        /// The intended new owner.
+        to: ClusterId,
+        /// Why not.
+        reason: &'static str,
+    },
+}

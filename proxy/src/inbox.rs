@@ -1,0 +1,83 @@
+//! Frames received and not yet used, by sender and tick.
+//!
+//! A frame is tagged with the number of steps its sender had taken when it published. In
+//! lock-step a cluster that has taken `n` steps uses exactly the frames tagged `n` and keeps
+//! later ones for later ticks, so what it sees does not depend on how fast a transport
+//! delivered: the same run gives the same result on every transport.
+
+use std::collections::BTreeMap;
+
+use seam_sim::wire::{ClusterId, PhysicsEventsFrame, ReplicationFrame};
+
+/// Frames waiting to be used.
+#[derive(Default)]
+pub(crate) struct Inbox {
+    replication: BTreeMap<(u64, ClusterId), ReplicationFrame>,
+    events: BTreeMap<(u64, ClusterId), PhysicsEventsFrame>,
+}
+
+/// The frames one tick uses, in neighbour order.
+pub(crate) struct TickFrames {
+    pub(crate) replication: Vec<ReplicationFrame>,
+    pub(crate) events: Vec<PhysicsEventsFrame>,
+}
+
+impl Inbox {
+    /// Keeps a replication frame; a second one for the same tick and sender replaces the first.
+    pub(crate) fn add_replication(&mut self, frame: ReplicationFrame) {
+        self.replication.insert((frame.tick, frame.from), frame);
+    }
+
+    /// Keeps an events frame (one per sender and tick, as for replication).
+    pub(crate) fn add_events(&mut self, frame: PhysicsEventsFrame) {
+        self.events.insert((frame.tick, frame.from), frame);
+    }
+
+    /// The first of `neighbours` whose frame tagged `tick` is missing, and which kind.
+    pub(crate) fn missing(
+        &self,
+        tick: u64,
+        neighbours: &[ClusterId],
+        replication_expected: bool,
+    ) -> Option<(ClusterId, &'static str)> {
+        neighbours.iter().find_map(|&n| {
+            if replication_expected && !self.replication.contains_key(&(tick, n)) {
+                Some((n, "replication"))
+            } else if !self.events.contains_key(&(tick, n)) {
+                Some((n, "physics_events"))
+            } else {
+                None
+            }
+        })
+    }
+
+    /// Takes the frames tagged `tick` (lock-step), in `neighbours` order, and drops older ones.
+    pub(crate) fn take_tick(&mut self, tick: u64, neighbours: &[ClusterId]) -> TickFrames {
+        let frames = TickFrames {
+            replication: neighbours
+                .iter()
+                .filter_map(|&n| self.replication.remove(&(tick, n)))
+                .collect(),
+            events: neighbours
+                .iter()
+                .filter_map(|&n| self.events.remove(&(tick, n)))
+                .collect(),
+        };
+        self.replication.retain(|(t, _), _| *t > tick);
+        self.events.retain(|(t, _), _| *t > tick);
+        frames
+    }
+
+    /// Takes everything (free-running): every events frame, and the newest replication frame of
+    /// each sender, oldest tick first.
+    pub(crate) fn take_all(&mut self) -> TickFrames {
+        let mut newest: BTreeMap<ClusterId, ReplicationFrame> = BTreeMap::new();
+        for ((_, from), frame) in std::mem::take(&mut self.replication) {
+            newest.insert(from, frame);
+        }
+        TickFrames {
+            replication: newest.into_values().collect(),
+            events: std::mem::take(&mut self.events).into_values().collect(),
+        }
+    }
+}

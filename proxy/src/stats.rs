@@ -1,0 +1,33 @@
+//! What a cluster counts.
+
+/// Counters of one cluster since it started.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ClusterStats {
+    /// Ticks run.
+    pub ticks: u64,
+    /// Proxies created for neighbour entities that became visible.
+    pub proxies_spawned: u64,
+    /// Proxies removed (entity left the region or its owner stopped listing it).
+    pub proxies_despawned: u64,
+    /// Writes on remote-owned entities sent to their owners.
+    pub ops_routed: u64,
+    /// Routed writes received and applied here.
+    pub ops_applied: u64,
+    /// Routed writes received for an entity this cluster does not own (any more): dropped.
+    pub ops_dropped_not_owner: u64,
+    /// Routed writes received with invalid values (NaN, infinity): dropped.
+    pub ops_dropped_invalid: u64,
+    /// Contacts between a local body and a proxy, reported to the proxy's owner.
+    pub contacts_sent: u64,
+    /// Contacts reported by neighbours, added to this cluster's contact events.
+    pub contacts_received: u64,
+    /// Entities handed to another cluster.
+    pub handoffs_out: u64,
+    /// Entities taken over from another cluster.
+    pub handoffs_in: u64,
+    /// Received frames that did not decode, or came on a channel that does not match their
+    /// sender.
+    pub frames_malformed: u64,
+    /// States ignored: sent by a cluster that is not the entity's owner, or invalid.
+    pub states_rejected: u64,
+}

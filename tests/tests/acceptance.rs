@@ -1,0 +1,419 @@
+//! The three layers end to end, each test run on shm, local and redis:
+//! `raycast_hits_proxy::shm`, `raycast_hits_proxy::local`, `raycast_hits_proxy::redis`, …
+//! Clusters run in lock-step in this process, so every run is deterministic on every transport.
+
+use std::time::Duration;
+
+use seam_proxy::{Cluster, ClusterConfig, ProxyMode, lockstep_round};
+use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+use seam_sim::{BodyRole, JointSpec, WriteOutcome};
+use seam_tests::TestContext;
+use seam_transport::Backend;
+
+const TIMEOUT: Duration = Duration::from_secs(10);
+
+macro_rules! on_every_transport {
+    ($($test:ident),+ $(,)?) => {
+        $(
+            mod $test {
+                #[test]
+                fn shm() {
+                    super::run(super::Backend::Shm, super::$test);
+                }
+                #[test]
+                fn local() {
+                    super::run(super::Backend::Local, super::$test);
+                }
+                #[test]
+                fn redis() {
+                    super::run(super::Backend::Redis, super::$test);
+                }
+            }
+        )+
+    };
+}
+
+on_every_transport!(
+    raycast_hits_proxy,
+    impulse_routed_to_authority,
+    contact_flows_back,
+    authority_transfer_atomic,
+    joint_refused_across_clusters,
+    velocity_proxy_smoother_than_fixed,
+);
+
+fn run(backend: Backend, test: fn(&TestContext)) {
+    if let Some(ctx) = TestContext::new(backend) {
+        test(&ctx);
+    }
+}
+
+/// Two neighbouring clusters on the test's transport, zero gravity unless `gravity`.
+fn pair(ctx: &TestContext, gravity: bool, tune: impl Fn(&mut ClusterConfig)) -> Vec<Cluster> {
+    let (a, b) = (ClusterId::random(), ClusterId::random());
+    [(a, b), (b, a)]
+        .into_iter()
+        .map(|(me, other)| {
+            let mut config = ClusterConfig::new(me, vec![other], &ctx.url());
+            if !gravity {
+                config.gravity = [0.0; 3];
+            }
+            tune(&mut config);
+            Cluster::new(config).expect("cluster")
+        })
+        .collect()
+}
+
+fn ball(position: [f32; 3], linvel: [f32; 3]) -> EntityState {
+    EntityState {
+        id: EntityId::random(),
+        cluster_id: ClusterId::random(), // replaced by spawn_owned
+        tick: 0,
+        position,
+        rotation: [0.0, 0.0, 0.0, 1.0],
+        linvel,
+        angvel: [0.0; 3],
+        body: BodyShape {
+            shape: Shape::Ball { radius: 0.5 },
+            density: 1000.0,
+            ccd: false,
+        },
+    }
+}
+
+fn rounds(clusters: &mut [Cluster], n: usize) {
+    for _ in 0..n {
+        lockstep_round(clusters, TIMEOUT, |_, _, _| {}).expect("round");
+    }
+}
+
+fn raycast_hits_proxy(ctx: &TestContext) {
+    let mut clusters = pair(ctx, false, |_| {});
+    let target = ball([10.0, 0.0, 0.0], [0.0; 3]);
+    clusters[0]
+        .spawn_owned(&target, BodyRole::Dynamic)
+        .expect("spawn");
+    rounds(&mut clusters, 1);
+    let mut hit = None;
+    lockstep_round(&mut clusters, TIMEOUT, |index, _, physics| {
+        if index == 1 {
+            hit = physics.raycast([0.0; 3], [1.0, 0.0, 0.0], 100.0, None);
+        }
+    })
+    .expect("round");
+    let hit = hit.expect("B's raycast hits its proxy of A's entity");
+    assert_eq!(hit.entity, target.id);
+    assert!(
+        (hit.toi - 9.5).abs() < 1e-3,
+        "at the proxy's surface: {}",
+        hit.toi
+    );
+    assert_eq!(
+        clusters[1].sim().info(target.id).expect("proxy").role,
+        BodyRole::Fixed
+    );
+}
+
+fn impulse_routed_to_authority(ctx: &TestContext) {
+    let mut clusters = pair(ctx, false, |_| {});
+    let target = ball([0.0; 3], [0.0; 3]);
+    clusters[0]
+        .spawn_owned(&target, BodyRole::Dynamic)
+        .expect("spawn");
+    let mass = 1000.0 * 4.0 / 3.0 * std::f32::consts::PI * 0.125;
+    rounds(&mut clusters, 1);
+    let mut outcome = None;
+    lockstep_round(&mut clusters, TIMEOUT, |index, _, physics| {
+        if index == 1 {
+            outcome = Some(physics.apply_impulse(target.id, [mass * 2.0, 0.0, 0.0]));
+        }
+    })
+    .expect("round");
+    assert_eq!(outcome, Some(Ok(WriteOutcome::Routed)));
+    assert_eq!(
+        clusters[0].sim().state(target.id).expect("body").linvel[0],
+        0.0,
+        "not yet"
+    );
+    rounds(&mut clusters, 1);
+    let v = clusters[0].sim().state(target.id).expect("body").linvel[0];
+    assert!(
+        (v - 2.0).abs() < 1e-3,
+        "A applied it on its next tick: Δv = J/m = 2, got {v}"
+    );
+    rounds(&mut clusters, 5);
+    let v = clusters[0].sim().state(target.id).expect("body").linvel[0];
+    assert!((v - 2.0).abs() < 1e-3, "applied exactly once: {v}");
+    assert_eq!(clusters[1].stats().ops_routed, 1);
+    assert_eq!(clusters[0].stats().ops_applied, 1);
+    // B's Fixed proxy follows the pose A replicates (a Fixed body itself has no velocity).
+    let (body, proxy) = (
+        clusters[0].sim().state(target.id).expect("body").position[0],
+        clusters[1].sim().state(target.id).expect("proxy").position[0],
+    );
+    assert!(
+        proxy > 0.0 && (body - proxy).abs() < 2.0 * 2.0 / 60.0 + 1e-4,
+        "{body} vs {proxy}"
+    );
+}
+
+fn contact_flows_back(ctx: &TestContext) {
+    let mut clusters = pair(ctx, true, |_| {});
+    let mut ground = ball([0.0, -0.5, 0.0], [0.0; 3]);
+    ground.body.shape = Shape::Cuboid {
+        half_extents: [5.0, 0.5, 5.0],
+    };
+    clusters[1]
+        .spawn_owned(&ground, BodyRole::Fixed)
+        .expect("B's ground");
+    let falling = ball([0.0, 1.5, 0.0], [0.0; 3]);
+    clusters[0]
+        .spawn_owned(&falling, BodyRole::Dynamic)
+        .expect("A's ball");
+    let mut seen_by_b = false;
+    for _ in 0..120 {
+        lockstep_round(&mut clusters, TIMEOUT, |index, context, _| {
+            if index == 1 {
+                seen_by_b |= context.contacts().iter().any(|c| {
+                    c.started
+                        && ((c.a, c.b) == (falling.id, ground.id)
+                            || (c.a, c.b) == (ground.id, falling.id))
+                });
+            }
+        })
+        .expect("round");
+    }
+    assert!(
+        seen_by_b,
+        "B sees the contact of A's ball with A's proxy of B's ground"
+    );
+    assert!(clusters[0].stats().contacts_sent >= 1);
+    assert!(clusters[1].stats().contacts_received >= 1);
+}
+
+fn authority_transfer_atomic(ctx: &TestContext) {
+    let mut clusters = pair(ctx, false, |_| {});
+    let (a, b) = (clusters[0].id(), clusters[1].id());
+    let moving = ball([0.0; 3], [3.0, 0.0, 0.0]);
+    clusters[0]
+        .spawn_owned(&moving, BodyRole::Dynamic)
+        .expect("spawn");
+    rounds(&mut clusters, 2);
+    let mut positions = Vec::new();
+    for round in 0..20 {
+        if round == 5 {
+            clusters[0]
+                .transfer_authority(moving.id, b)
+                .expect("hand over");
+        }
+        let mut dynamic = Vec::new();
+        lockstep_round(&mut clusters, TIMEOUT, |index, context, physics| {
+            let info = context.entity(moving.id).expect("both model it");
+            if info.role == BodyRole::Dynamic {
+                dynamic.push(index);
+                positions.push(physics.translation(moving.id).expect("there")[0]);
+            }
+        })
+        .expect("round");
+        assert_eq!(
+            dynamic.len(),
+            1,
+            "round {round}: exactly one dynamic body, got {dynamic:?}"
+        );
+    }
+    let (at_a, at_b) = (
+        clusters[0].sim().info(moving.id).expect("A models it"),
+        clusters[1].sim().info(moving.id).expect("B models it"),
+    );
+    assert_eq!(
+        (at_a.cluster_id, at_a.role),
+        (b, BodyRole::Fixed),
+        "A's body became a proxy"
+    );
+    assert_eq!(
+        (at_b.cluster_id, at_b.role),
+        (b, BodyRole::Dynamic),
+        "B's proxy became the body"
+    );
+    let _ = a;
+    // Continuous: the body advances v·dt every tick across the hand-off.
+    let step = 3.0 / 60.0;
+    for pair in positions.windows(2) {
+        assert!(
+            (pair[1] - pair[0] - step).abs() < 1e-4,
+            "jump at the hand-off: {positions:?}"
+        );
+    }
+    assert_eq!(clusters[0].stats().handoffs_out, 1);
+    assert_eq!(clusters[1].stats().handoffs_in, 1);
+}
+
+fn joint_refused_across_clusters(ctx: &TestContext) {
+    let mut clusters = pair(ctx, false, |_| {});
+    let (theirs, ours) = (ball([0.0; 3], [0.0; 3]), ball([2.0, 0.0, 0.0], [0.0; 3]));
+    let other = ball([4.0, 0.0, 0.0], [0.0; 3]);
+    clusters[0]
+        .spawn_owned(&theirs, BodyRole::Dynamic)
+        .expect("spawn");
+    clusters[1]
+        .spawn_owned(&ours, BodyRole::Dynamic)
+        .expect("spawn");
+    clusters[1]
+        .spawn_owned(&other, BodyRole::Dynamic)
+        .expect("spawn");
+    rounds(&mut clusters, 2);
+    let spec = JointSpec::Fixed {
+        anchor_a: [0.0; 3],
+        anchor_b: [0.0; 3],
+    };
+    let (mut across, mut local) = (Some(None), None);
+    lockstep_round(&mut clusters, TIMEOUT, |index, _, physics| {
+        if index == 1 {
+            across = Some(physics.create_joint(ours.id, theirs.id, spec));
+            local = physics.create_joint(ours.id, other.id, spec);
+        }
+    })
+    .expect("round");
+    assert_eq!(across, Some(None), "a joint with A's entity is refused");
+    assert!(local.is_some(), "a joint between B's own entities is made");
+}
+
+/// Mean distance between B's proxy and A's body over `ticks`, replication every 4 ticks.
+fn tracking_error(ctx: &TestContext, mode: ProxyMode) -> f32 {
+    let mut clusters = pair(ctx, false, |config| {
+        config.proxy_mode = mode;
+        config.replication_interval = 4;
+    });
+    let moving = ball([0.0; 3], [6.0, 0.0, 0.0]);
+    clusters[0]
+        .spawn_owned(&moving, BodyRole::Dynamic)
+        .expect("spawn");
+    rounds(&mut clusters, 12);
+    let mut total = 0.0;
+    const TICKS: usize = 80;
+    for _ in 0..TICKS {
+        rounds(&mut clusters, 1);
+        let truth = clusters[0].sim().state(moving.id).expect("body").position[0];
+        let proxy = clusters[1].sim().state(moving.id).expect("proxy").position[0];
+        total += (truth - proxy).abs();
+    }
+    total / TICKS as f32
+}
+
+fn velocity_proxy_smoother_than_fixed(ctx: &TestContext) {
+    let fixed = tracking_error(ctx, ProxyMode::Fixed);
+    let velocity = tracking_error(ctx, ProxyMode::KinematicVelocityBased);
+    assert!(
+        velocity < 0.5 * fixed,
+        "velocity-based proxy error {velocity} m should be well under the Fixed proxy's {fixed} m"
+    );
+}
+
+/// Every state in every cluster, as raw bits, in entity order.
+fn world_bits(clusters: &[Cluster]) -> Vec<Vec<(EntityId, Vec<u32>)>> {
+    clusters
+        .iter()
+        .map(|cluster| {
+            let mut states: Vec<(EntityId, Vec<u32>)> = cluster
+                .sim()
+                .entities()
+                .filter_map(|(id, _)| cluster.sim().state(id))
+                .map(|s| {
+                    let bits = s
+                        .position
+                        .iter()
+                        .chain(&s.rotation)
+                        .chain(&s.linvel)
+                        .chain(&s.angvel)
+                        .map(|v| v.to_bits())
+                        .collect();
+                    (s.id, bits)
+                })
+                .collect();
+            states.sort_by_key(|(id, _)| *id);
+            states
+        })
+        .collect()
+}
+
+/// The same scripted scene, with fixed ids, on one transport: A's balls fall onto B's ground,
+/// B pushes A's balls, A hands one ball to B.
+fn scripted_scene(ctx: &TestContext) -> Vec<Vec<(EntityId, Vec<u32>)>> {
+    let (a, b) = (ClusterId::random(), ClusterId::random());
+    let mut clusters: Vec<Cluster> = [(a, b), (b, a)]
+        .into_iter()
+        .map(|(me, other)| {
+            Cluster::new(ClusterConfig::new(me, vec![other], &ctx.url())).expect("cluster")
+        })
+        .collect();
+    let mut ground = ball([0.0, -0.5, 0.0], [0.0; 3]);
+    ground.id = EntityId::from_u128(1);
+    ground.body.shape = Shape::Cuboid {
+        half_extents: [20.0, 0.5, 20.0],
+    };
+    clusters[1]
+        .spawn_owned(&ground, BodyRole::Fixed)
+        .expect("ground");
+    let balls: Vec<EntityId> = (0..12u128)
+        .map(|i| {
+            let mut state = ball(
+                [
+                    (i % 4) as f32 * 1.2 - 2.0,
+                    1.0 + (i / 4) as f32 * 1.1,
+                    (i % 3) as f32 * 0.3,
+                ],
+                [0.5, 0.0, -0.2],
+            );
+            state.id = EntityId::from_u128(100 + i);
+            clusters[0]
+                .spawn_owned(&state, BodyRole::Dynamic)
+                .expect("ball");
+            state.id
+        })
+        .collect();
+    for round in 0..90u64 {
+        if round == 40 {
+            clusters[0]
+                .transfer_authority(balls[3], b)
+                .expect("hand over");
+        }
+        lockstep_round(&mut clusters, TIMEOUT, |index, context, physics| {
+            if index == 1 && context.tick() % 10 == 5 {
+                let target = balls[(context.tick() / 10) as usize % balls.len()];
+                let _ = physics.apply_impulse(target, [0.0, 300.0, 150.0]);
+            }
+        })
+        .expect("round");
+    }
+    let (at_a, at_b) = (clusters[0].stats(), clusters[1].stats());
+    assert!(
+        at_a.ops_applied >= 8,
+        "routed impulses were applied: {at_a:?}"
+    );
+    assert_eq!(at_b.handoffs_in, 1, "the hand-off happened");
+    assert!(at_a.contacts_sent > 0, "balls landed on B's ground");
+    world_bits(&clusters)
+}
+
+#[test]
+fn transport_swap_identical() {
+    let mut results = Vec::new();
+    for backend in [Backend::Shm, Backend::Local, Backend::Redis] {
+        match TestContext::new(backend) {
+            Some(ctx) => results.push((backend, scripted_scene(&ctx))),
+            None => eprintln!("transport_swap_identical: {backend} left out (see SKIP above)"),
+        }
+    }
+    let (first, reference) = &results[0];
+    assert_eq!(
+        reference[0].len(),
+        13,
+        "A: 12 balls (one now a proxy) and the ground proxy"
+    );
+    for (backend, worlds) in &results[1..] {
+        assert!(
+            worlds == reference,
+            "{backend} ended differently from {first}"
+        );
+    }
+}
