@@ -40,6 +40,8 @@ on_every_transport!(
     authority_transfer_atomic,
     joint_refused_across_clusters,
     velocity_proxy_smoother_than_fixed,
+    flip_only_from_the_owner,
+    op_after_hand_off_is_dropped_not_applied,
 );
 
 fn run(backend: Backend, test: fn(&TestContext)) {
@@ -416,4 +418,89 @@ fn transport_swap_identical() {
             "{backend} ended differently from {first}"
         );
     }
+}
+
+/// A replication frame on A's channel that names B's entity as A's, or claims to hand it to A,
+/// is ignored: only an entity's current owner moves it.
+fn flip_only_from_the_owner(ctx: &TestContext) {
+    use seam_sim::wire::{self, ReplicationFrame};
+    let mut clusters = pair(ctx, false, |_| {});
+    let (a, b) = (clusters[0].id(), clusters[1].id());
+    let entity = ball([5.0, 0.0, 0.0], [0.0; 3]);
+    clusters[1]
+        .spawn_owned(&entity, BodyRole::Dynamic)
+        .expect("B's entity");
+    rounds(&mut clusters, 2);
+    let before = clusters[1].sim().state(entity.id).expect("B's body");
+    // A forger publishes on A's replication channel, as A, for the tick B will read next.
+    let mut forger = ctx.open();
+    let tick = clusters[1].sim().tick();
+    let forged = ReplicationFrame {
+        from: a,
+        tick,
+        states: vec![EntityState {
+            cluster_id: a,
+            position: [99.0, 0.0, 0.0],
+            ..before
+        }],
+    };
+    forger
+        .publish(&seam_proxy::replication(a), &wire::encode(&forged))
+        .expect("publish");
+    rounds(&mut clusters, 2);
+    let after = clusters[1].sim().info(entity.id).expect("still B's");
+    assert_eq!(
+        (after.cluster_id, after.role),
+        (b, BodyRole::Dynamic),
+        "B still owns it"
+    );
+    let x = clusters[1].sim().state(entity.id).expect("body").position[0];
+    assert!(
+        (x - 5.0).abs() < 1e-4,
+        "B's body did not move to the forged pose: {x}"
+    );
+    assert!(
+        clusters[1].stats().states_rejected >= 1,
+        "{:?}",
+        clusters[1].stats()
+    );
+}
+
+/// B writes to A's entity in the very tick A hands it to B: the op reaches A after A gave it
+/// away, and A drops and counts it instead of applying it.
+fn op_after_hand_off_is_dropped_not_applied(ctx: &TestContext) {
+    let mut clusters = pair(ctx, false, |_| {});
+    let b = clusters[1].id();
+    let entity = ball([0.0; 3], [0.0; 3]);
+    clusters[0]
+        .spawn_owned(&entity, BodyRole::Dynamic)
+        .expect("spawn");
+    rounds(&mut clusters, 2);
+    clusters[0]
+        .transfer_authority(entity.id, b)
+        .expect("hand over");
+    lockstep_round(&mut clusters, TIMEOUT, |index, _, physics| {
+        if index == 1 {
+            // B still sees A as the owner: the write is routed to A.
+            assert_eq!(
+                physics.apply_impulse(entity.id, [1000.0, 0.0, 0.0]),
+                Ok(WriteOutcome::Routed)
+            );
+        }
+    })
+    .expect("round");
+    rounds(&mut clusters, 3);
+    assert_eq!(
+        clusters[0].stats().ops_dropped_not_owner,
+        1,
+        "{:?}",
+        clusters[0].stats()
+    );
+    assert_eq!(clusters[0].stats().ops_applied, 0);
+    let v = clusters[1]
+        .sim()
+        .state(entity.id)
+        .expect("B's body now")
+        .linvel;
+    assert_eq!(v, [0.0; 3], "the op was applied nowhere");
 }
