@@ -1,4 +1,106 @@
-//! seam-proxy — placeholder overview, rewritten below.
+//! seam-proxy — the three layers that make physics work across the seam between clusters:
+//! proxies, routing and authority transfer, joining a `seam-sim` world to any
+//! `seam-transport` backend.
+//!
+//! ```
+//! use std::time::Duration;
+//! use seam_proxy::{Cluster, ClusterConfig, lockstep_round};
+//! use seam_sim::BodyRole;
+//! use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+//!
+//! // Two clusters in one process on iceoryx2's in-process transport.
+//! let (a, b) = (ClusterId::random(), ClusterId::random());
+//! let url = format!("local?prefix=doc_{}_", std::process::id());
+//! let mut clusters = vec![
+//!     Cluster::new(ClusterConfig::new(a, vec![b], &url))?,
+//!     Cluster::new(ClusterConfig::new(b, vec![a], &url))?,
+//! ];
+//! let crate_ = EntityState {
+//!     id: EntityId::random(),
+//!     cluster_id: a,
+//!     tick: 0,
+//!     position: [10.0, 0.0, 0.0],
+//!     rotation: [0.0, 0.0, 0.0, 1.0],
+//!     linvel: [0.0; 3],
+//!     angvel: [0.0; 3],
+//!     body: BodyShape { shape: Shape::Cuboid { half_extents: [0.5; 3] }, density: 500.0, ccd: false },
+//! };
+//! clusters[0].spawn_owned(&crate_, BodyRole::Dynamic)?;
+//! for _ in 0..2 {
+//!     lockstep_round(&mut clusters, Duration::from_secs(5), |index, _context, physics| {
+//!         if index == 1 {
+//!             // B shoots: its raycast hits its proxy of A's crate, and the push it gives the
+//!             // crate is routed to A, which applies it on its next tick.
+//!             if let Some(hit) = physics.raycast([0.0; 3], [1.0, 0.0, 0.0], 50.0, None) {
+//!                 physics.apply_impulse(hit.entity, [100.0, 0.0, 0.0]).expect("routed");
+//!             }
+//!         }
+//!     })?;
+//! }
+//! # Ok::<(), seam_proxy::ClusterError>(())
+//! ```
+//!
+//! # Architecture
+//!
+//! A [`Cluster`] owns a `ClusterSim` (its Rapier world) and a `Box<dyn Transport>`; nothing of a
+//! backend shows in its API. It publishes on `replication:<its id>` and
+//! `physics_events:<neighbour id>`, and listens on its neighbours' replication channels and its
+//! own `physics_events` channel. One tick, in order:
+//!
+//! 1. **Drain** the inbox: neighbours' replication frames and this cluster's physics events.
+//! 2. **Reconcile** the world with the replication frames (below).
+//! 3. **User code** runs with the tick context and the physics handle. Reads and queries use the
+//!    local world, proxies included; a write on an entity another cluster owns is queued for
+//!    that owner.
+//! 4. **Routed ops** received in step 1 are applied, then the world **steps**.
+//! 5. **Publish**: one replication frame with the states of the entities this cluster owns
+//!    (every `replication_interval` ticks), and one physics-events frame per neighbour with the
+//!    ops queued for it and the contacts between this cluster's bodies and its proxies.
+//!
+//! Every frame is tagged with its sender's step count. [`Cluster::tick`] uses whatever has
+//! arrived (free-running pods); [`Cluster::tick_lockstep`] and [`lockstep_round`] wait, by
+//! counting frames, for exactly the neighbours' frames of the same step count and keep newer
+//! ones for later, so a run gives the same result on every transport.
+//!
+//! # Proxy lifecycle
+//!
+//! A neighbour entity is modelled only while its replicated position lies inside this cluster's
+//! `region` grown by `spread`. It is spawned as a proxy the first time its owner lists it there,
+//! updated from each replication frame — `Fixed`: set to the pose; `KinematicVelocityBased`:
+//! given the velocity that carries it to where the entity will be at the next update (so it
+//! moves between updates); `Custom`: a [`CustomProxy`] — and despawned when it leaves the region
+//! or its owner stops listing it. Contacts between a body of this cluster and a proxy are sent
+//! to the proxy's owner, which sees them among its contact events on its next tick.
+//!
+//! # Routing
+//!
+//! A write on a remote-owned entity goes, once, in the next physics-events frame to the owner
+//! this cluster knows, which applies it just before its next step. Writes are validated before
+//! they are queued (NaN, infinity and unknown entities are refused at the caller). An op that
+//! reaches a cluster which does not own its target (any more) is dropped and counted in
+//! [`ClusterStats::ops_dropped_not_owner`] — never applied, so never applied twice. A joint
+//! between entities of different owners is refused (`create_joint` returns `None`).
+//!
+//! # Authority
+//!
+//! Ownership is the `cluster_id` in an entity's replicated state, and only the current owner's
+//! frames can change it. [`Cluster::transfer_authority`] makes the owner's next replication frame
+//! carry the entity's final pose and velocity with the new owner's id; the old owner turns its
+//! body into a proxy right after publishing; the new owner, reading that frame, turns its proxy
+//! into the dynamic body in place with that pose and velocity (or spawns it, if it had no proxy);
+//! third clusters route writes to the new owner from then on. In lock-step the old owner's last
+//! dynamic step and the new owner's first are consecutive: at every step exactly one cluster
+//! simulates the entity.
+//!
+//! # Layout
+//!
+//! - `cluster` — [`Cluster`]: the tick, reconcile, routing, contacts, publish.
+//! - `config` — [`ClusterConfig`], [`Region`], [`ProxyMode`], [`CustomProxy`].
+//! - `inbox` — frames by sender and step count, for lock-step.
+//! - `lockstep` — [`lockstep_round`]: N clusters of one process, tick by tick.
+//! - `channels` — channel names ([`replication`], [`physics_events`]).
+//! - `stats` — [`ClusterStats`].
+//! - `error` — [`ClusterError`].
 
 mod channels;
 mod cluster;
