@@ -4,7 +4,7 @@
 
 use std::time::Duration;
 
-use seam_proxy::{Cluster, ClusterConfig, ProxyMode, lockstep_round};
+use seam_proxy::{Cluster, ClusterConfig, CustomProxy, ProxyMode, Region, lockstep_round};
 use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
 use seam_sim::{BodyRole, JointSpec, WriteOutcome};
 use seam_tests::TestContext;
@@ -42,6 +42,9 @@ on_every_transport!(
     velocity_proxy_smoother_than_fixed,
     flip_only_from_the_owner,
     op_after_hand_off_is_dropped_not_applied,
+    only_the_region_is_modelled,
+    custom_proxy_hook_moves_proxies,
+    third_cluster_routes_to_the_new_owner,
 );
 
 fn run(backend: Backend, test: fn(&TestContext)) {
@@ -503,4 +506,138 @@ fn op_after_hand_off_is_dropped_not_applied(ctx: &TestContext) {
         .expect("B's body now")
         .linvel;
     assert_eq!(v, [0.0; 3], "the op was applied nowhere");
+}
+
+/// B models A's entities only inside its region grown by the spread: an entity crossing into it
+/// gets a proxy, one leaving loses it.
+fn only_the_region_is_modelled(ctx: &TestContext) {
+    let mut clusters = pair(ctx, false, |config| {
+        config.region = Region {
+            min: [0.0, -10.0, -10.0],
+            max: [10.0, 10.0, 10.0],
+        };
+        config.spread = 2.0;
+    });
+    let far = ball([50.0, 0.0, 0.0], [0.0; 3]);
+    let walker = ball([-4.0, 0.0, 0.0], [6.0, 0.0, 0.0]);
+    clusters[0]
+        .spawn_owned(&far, BodyRole::Dynamic)
+        .expect("spawn");
+    clusters[0]
+        .spawn_owned(&walker, BodyRole::Dynamic)
+        .expect("spawn");
+    let mut seen = Vec::new();
+    for _ in 0..180 {
+        rounds(&mut clusters, 1);
+        let x = clusters[0]
+            .sim()
+            .state(walker.id)
+            .expect("A's body")
+            .position[0];
+        seen.push((x, clusters[1].sim().contains(walker.id)));
+        assert!(
+            !clusters[1].sim().contains(far.id),
+            "an entity 40 m outside is not modelled"
+        );
+    }
+    // The walker goes from -4 to +14 m; B models it only while within [-2, 12] (one tick late).
+    let margin = 6.0 / 60.0 + 1e-3;
+    for &(x, modelled) in &seen {
+        if x < -2.0 - margin || x > 12.0 + margin {
+            assert!(!modelled, "modelled at x = {x}");
+        }
+        if x > -2.0 + margin && x < 12.0 - margin {
+            assert!(modelled, "not modelled at x = {x}");
+        }
+    }
+    assert_eq!(clusters[1].stats().proxies_spawned, 1);
+    assert_eq!(clusters[1].stats().proxies_despawned, 1);
+}
+
+/// Moves proxies 1 m above the replicated pose and counts its calls.
+struct Lifted(std::rc::Rc<std::cell::Cell<u32>>);
+
+impl CustomProxy for Lifted {
+    fn update(
+        &mut self,
+        sim: &mut seam_sim::ClusterSim,
+        state: &EntityState,
+    ) -> Result<(), seam_sim::SimError> {
+        self.0.set(self.0.get() + 1);
+        let mut lifted = *state;
+        lifted.position[1] += 1.0;
+        sim.apply_state(&lifted)
+    }
+}
+
+fn custom_proxy_hook_moves_proxies(ctx: &TestContext) {
+    let mut clusters = pair(ctx, false, |config| config.proxy_mode = ProxyMode::Custom);
+    let calls = std::rc::Rc::new(std::cell::Cell::new(0));
+    clusters[1].set_custom_proxy(Box::new(Lifted(calls.clone())));
+    let entity = ball([0.0; 3], [1.0, 0.0, 0.0]);
+    clusters[0]
+        .spawn_owned(&entity, BodyRole::Dynamic)
+        .expect("spawn");
+    rounds(&mut clusters, 10);
+    assert!(
+        calls.get() >= 8,
+        "the hook ran for each update: {}",
+        calls.get()
+    );
+    let info = clusters[1].sim().info(entity.id).expect("proxy");
+    assert_eq!(info.role, BodyRole::KinematicPositionBased);
+    let y = clusters[1].sim().state(entity.id).expect("proxy").position[1];
+    assert!((y - 1.0).abs() < 1e-4, "the hook placed it: y = {y}");
+}
+
+/// A hands an entity to B; C, which writes to it, routes to B from then on.
+fn third_cluster_routes_to_the_new_owner(ctx: &TestContext) {
+    let ids: Vec<ClusterId> = (0..3).map(|_| ClusterId::random()).collect();
+    let mut clusters: Vec<Cluster> = ids
+        .iter()
+        .map(|&me| {
+            let others = ids.iter().copied().filter(|&c| c != me).collect();
+            let mut config = ClusterConfig::new(me, others, &ctx.url());
+            config.gravity = [0.0; 3];
+            Cluster::new(config).expect("cluster")
+        })
+        .collect();
+    let entity = ball([0.0; 3], [0.0; 3]);
+    clusters[0]
+        .spawn_owned(&entity, BodyRole::Dynamic)
+        .expect("spawn");
+    rounds(&mut clusters, 2);
+    clusters[0]
+        .transfer_authority(entity.id, ids[1])
+        .expect("hand over");
+    rounds(&mut clusters, 3);
+    assert_eq!(
+        clusters[2]
+            .sim()
+            .info(entity.id)
+            .expect("C's proxy")
+            .cluster_id,
+        ids[1]
+    );
+    let mass = 1000.0 * 4.0 / 3.0 * std::f32::consts::PI * 0.125;
+    lockstep_round(&mut clusters, TIMEOUT, |index, _, physics| {
+        if index == 2 {
+            physics
+                .apply_impulse(entity.id, [0.0, 0.0, mass])
+                .expect("routed");
+        }
+    })
+    .expect("round");
+    rounds(&mut clusters, 2);
+    let v = clusters[1].sim().state(entity.id).expect("B's body").linvel[2];
+    assert!(
+        (v - 1.0).abs() < 1e-3,
+        "B, the new owner, applied C's push once: {v}"
+    );
+    assert_eq!(clusters[1].stats().ops_applied, 1);
+    assert_eq!(
+        clusters[0].stats().ops_dropped_not_owner,
+        0,
+        "nothing went to A"
+    );
 }
