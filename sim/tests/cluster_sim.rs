@@ -42,20 +42,9 @@ fn sim() -> ClusterSim {
 }
 
 /// Every state of the world, as raw bits, to compare worlds exactly.
-fn snapshot(sim: &ClusterSim) -> Vec<(EntityId, Vec<u32>)> {
+fn snapshot(sim: &ClusterSim) -> Vec<(EntityId, [u32; 13])> {
     sim.entities()
-        .map(|(id, _)| {
-            let s = sim.state(id).expect("listed");
-            let bits = s
-                .position
-                .iter()
-                .chain(&s.rotation)
-                .chain(&s.linvel)
-                .chain(&s.angvel)
-                .map(|v| v.to_bits())
-                .collect();
-            (id, bits)
-        })
+        .map(|(id, _)| (id, sim.state(id).expect("listed").motion_bits()))
         .collect()
 }
 
@@ -508,7 +497,7 @@ fn speed_cap_is_configuration() {
     );
 }
 
-fn run_scene() -> Vec<(EntityId, Vec<u32>)> {
+fn run_scene() -> Vec<(EntityId, [u32; 13])> {
     let mut sim = sim();
     sim.spawn(
         &cuboid(1, HERE, [0.0, -0.5, 0.0], [50.0, 0.5, 50.0]),

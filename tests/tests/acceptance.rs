@@ -315,25 +315,15 @@ fn velocity_proxy_smoother_than_fixed(ctx: &TestContext) {
 }
 
 /// Every state in every cluster, as raw bits, in entity order.
-fn world_bits(clusters: &[Cluster]) -> Vec<Vec<(EntityId, Vec<u32>)>> {
+fn world_bits(clusters: &[Cluster]) -> Vec<Vec<(EntityId, [u32; 13])>> {
     clusters
         .iter()
         .map(|cluster| {
-            let mut states: Vec<(EntityId, Vec<u32>)> = cluster
-                .sim()
+            let sim = cluster.sim();
+            let mut states: Vec<(EntityId, [u32; 13])> = sim
                 .entities()
-                .filter_map(|(id, _)| cluster.sim().state(id))
-                .map(|s| {
-                    let bits = s
-                        .position
-                        .iter()
-                        .chain(&s.rotation)
-                        .chain(&s.linvel)
-                        .chain(&s.angvel)
-                        .map(|v| v.to_bits())
-                        .collect();
-                    (s.id, bits)
-                })
+                .filter_map(|(id, _)| sim.state(id))
+                .map(|s| (s.id, s.motion_bits()))
                 .collect();
             states.sort_by_key(|(id, _)| *id);
             states
@@ -343,7 +333,7 @@ fn world_bits(clusters: &[Cluster]) -> Vec<Vec<(EntityId, Vec<u32>)>> {
 
 /// The same scripted scene, with fixed ids, on one transport: A's balls fall onto B's ground,
 /// B pushes A's balls, A hands one ball to B.
-fn scripted_scene(ctx: &TestContext) -> Vec<Vec<(EntityId, Vec<u32>)>> {
+fn scripted_scene(ctx: &TestContext) -> Vec<Vec<(EntityId, [u32; 13])>> {
     let (a, b) = (ClusterId::random(), ClusterId::random());
     let mut clusters: Vec<Cluster> = [(a, b), (b, a)]
         .into_iter()

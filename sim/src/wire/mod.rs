@@ -72,6 +72,24 @@ pub struct EntityState {
     pub body: BodyShape,
 }
 
+impl EntityState {
+    /// Position, rotation, linear and angular velocity as raw IEEE 754 bits, to compare worlds
+    /// exactly (determinism checks).
+    pub fn motion_bits(&self) -> [u32; 13] {
+        let mut bits = [0u32; 13];
+        let values = self
+            .position
+            .iter()
+            .chain(&self.rotation)
+            .chain(&self.linvel)
+            .chain(&self.angvel);
+        for (slot, value) in bits.iter_mut().zip(values) {
+            *slot = value.to_bits();
+        }
+        bits
+    }
+}
+
 /// A write on an entity, routed to its authority when it is owned elsewhere.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum PhysicsOp {
