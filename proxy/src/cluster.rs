@@ -4,7 +4,7 @@ use std::time::{Duration, Instant};
 
 use seam_sim::wire::{
     self, ClusterId, ContactReport, EntityId, EntityState, IdMap, PhysicsEventsFrame, PhysicsOp,
-    ReplicationFrame,
+    ReplicationFrame, RoutedOp,
 };
 use seam_sim::{
     BodyRole, ClusterSim, ContactEvent, PhysicsHandle, SimConfig, SimError, TickContext,
@@ -13,6 +13,7 @@ use seam_sim::{
 use seam_transport::Transport;
 
 use crate::channels::{self, Channel};
+use crate::clock::{OpTiming, monotonic_ns};
 use crate::config::{ClusterConfig, CustomProxy, ProxyMode};
 use crate::error::ClusterError;
 use crate::inbox::{Inbox, TickFrames};
@@ -21,7 +22,8 @@ use crate::stats::ClusterStats;
 /// Writes on remote-owned entities, queued by owner until the tick publishes.
 struct Outbox<'a> {
     neighbours: &'a [ClusterId],
-    ops: &'a mut IdMap<ClusterId, Vec<PhysicsOp>>,
+    ops: &'a mut IdMap<ClusterId, Vec<RoutedOp>>,
+    tick: u64,
 }
 
 impl WriteRouter for Outbox<'_> {
@@ -32,10 +34,17 @@ impl WriteRouter for Outbox<'_> {
                 owner,
             });
         }
-        self.ops.entry(owner).or_default().push(op);
+        self.ops.entry(owner).or_default().push(RoutedOp {
+            op,
+            issued_ns: monotonic_ns(),
+            issued_tick: self.tick,
+        });
         Ok(())
     }
 }
+
+/// Op timings kept between two [`Cluster::take_op_timings`] calls.
+pub const MAX_OP_TIMINGS: usize = 1 << 20;
 
 /// One simulation cluster: its world, its transport, and the three cross-cluster layers.
 pub struct Cluster {
@@ -44,7 +53,9 @@ pub struct Cluster {
     transport: Box<dyn Transport>,
     inbox: Inbox,
     /// Routed writes by destination, for this tick's publish.
-    outgoing_ops: IdMap<ClusterId, Vec<PhysicsOp>>,
+    outgoing_ops: IdMap<ClusterId, Vec<RoutedOp>>,
+    /// Stage times of the routed ops applied here, until the caller takes them.
+    op_timings: Vec<OpTiming>,
     /// Contacts with proxies, by the proxy's owner, for this tick's publish.
     outgoing_contacts: IdMap<ClusterId, Vec<ContactReport>>,
     /// Entities to hand over at the next replication frame, and to whom.
@@ -86,6 +97,7 @@ impl Cluster {
             transport,
             inbox: Inbox::default(),
             outgoing_ops: IdMap::default(),
+            op_timings: Vec::new(),
             outgoing_contacts: IdMap::default(),
             transfers: IdMap::default(),
             handed: IdMap::default(),
@@ -117,6 +129,13 @@ impl Cluster {
     /// What the transport has counted.
     pub fn transport_stats(&self) -> seam_transport::Stats {
         self.transport.stats()
+    }
+
+    /// Takes the stage times of the routed ops applied here since the last call (at most
+    /// [`MAX_OP_TIMINGS`] are kept between calls; older ones are counted in
+    /// [`ClusterStats::op_timings_dropped`]).
+    pub fn take_op_timings(&mut self) -> Vec<OpTiming> {
+        std::mem::take(&mut self.op_timings)
     }
 
     /// Sets the hook that moves proxies in [`ProxyMode::Custom`].
@@ -195,8 +214,9 @@ impl Cluster {
                     });
                 }
                 if let Some(message) = self.transport.receive_timeout(deadline - now)? {
-                    let (channel, payload) = (message.channel.to_owned(), message.payload.to_vec());
-                    self.accept(&channel, &payload);
+                    let received_ns = monotonic_ns();
+                    let frame = decode_frame(message.channel, message.payload);
+                    self.file(frame, received_ns);
                 }
                 self.drain()?;
             }
@@ -208,25 +228,21 @@ impl Cluster {
     /// Moves everything the transport holds into the inbox.
     fn drain(&mut self) -> Result<(), ClusterError> {
         while let Some(message) = self.transport.try_receive()? {
+            let received_ns = monotonic_ns();
             // Decoded straight from the received bytes (on shm, the shared-memory sample).
             let frame = decode_frame(message.channel, message.payload);
-            self.file(frame);
+            self.file(frame, received_ns);
         }
         Ok(())
     }
 
-    fn accept(&mut self, channel: &str, payload: &[u8]) {
-        let frame = decode_frame(channel, payload);
-        self.file(frame);
-    }
-
-    fn file(&mut self, frame: Option<Frame>) {
+    fn file(&mut self, frame: Option<Frame>, received_ns: u64) {
         match frame {
             Some(Frame::Replication(frame)) if self.config.neighbours.contains(&frame.from) => {
                 self.inbox.add_replication(frame)
             }
             Some(Frame::Events(frame)) if self.config.neighbours.contains(&frame.from) => {
-                self.inbox.add_events(frame)
+                self.inbox.add_events(frame, received_ns)
             }
             _ => self.stats.frames_malformed += 1,
         }
@@ -244,7 +260,7 @@ impl Cluster {
         let reported = frames
             .events
             .iter()
-            .flat_map(|f| &f.contacts)
+            .flat_map(|(f, _)| &f.contacts)
             .map(|c| ContactEvent {
                 a: c.a,
                 b: c.b,
@@ -258,19 +274,38 @@ impl Cluster {
         let mut outbox = Outbox {
             neighbours: &self.config.neighbours,
             ops: &mut self.outgoing_ops,
+            tick: self.sim.tick(),
         };
         self.sim.run_user(&mut outbox, user);
 
         // Routed writes received, applied just before the step.
-        for op in frames.events.iter().flat_map(|f| &f.ops) {
-            match self.sim.info(op.target()) {
-                Some(info) if info.cluster_id == self.config.cluster_id => {
-                    match self.sim.apply_op(op) {
-                        Ok(()) => self.stats.ops_applied += 1,
-                        Err(_) => self.stats.ops_dropped_invalid += 1,
+        let tick = self.sim.tick();
+        for (frame, received_ns) in &frames.events {
+            for routed in &frame.ops {
+                match self.sim.info(routed.op.target()) {
+                    Some(info) if info.cluster_id == self.config.cluster_id => {
+                        match self.sim.apply_op(&routed.op) {
+                            Ok(()) => {
+                                self.stats.ops_applied += 1;
+                                let timing = OpTiming {
+                                    issued_ns: routed.issued_ns,
+                                    published_ns: frame.published_ns,
+                                    received_ns: *received_ns,
+                                    applied_ns: monotonic_ns(),
+                                    issued_tick: routed.issued_tick,
+                                    applied_tick: tick,
+                                };
+                                if self.op_timings.len() < MAX_OP_TIMINGS {
+                                    self.op_timings.push(timing);
+                                } else {
+                                    self.stats.op_timings_dropped += 1;
+                                }
+                            }
+                            Err(_) => self.stats.ops_dropped_invalid += 1,
+                        }
                     }
+                    _ => self.stats.ops_dropped_not_owner += 1,
                 }
-                _ => self.stats.ops_dropped_not_owner += 1,
             }
         }
 
@@ -473,6 +508,7 @@ impl Cluster {
             let frame = PhysicsEventsFrame {
                 from: me,
                 tick,
+                published_ns: monotonic_ns(),
                 ops: self
                     .outgoing_ops
                     .get_mut(&neighbour)

@@ -13,13 +13,15 @@ use seam_sim::wire::{ClusterId, PhysicsEventsFrame, ReplicationFrame};
 #[derive(Default)]
 pub(crate) struct Inbox {
     replication: BTreeMap<(u64, ClusterId), ReplicationFrame>,
-    events: BTreeMap<(u64, ClusterId), PhysicsEventsFrame>,
+    /// With the host monotonic time it was received at.
+    events: BTreeMap<(u64, ClusterId), (PhysicsEventsFrame, u64)>,
 }
 
 /// The frames one tick uses, in neighbour order.
 pub(crate) struct TickFrames {
     pub(crate) replication: Vec<ReplicationFrame>,
-    pub(crate) events: Vec<PhysicsEventsFrame>,
+    /// With the time each was received at.
+    pub(crate) events: Vec<(PhysicsEventsFrame, u64)>,
 }
 
 impl Inbox {
@@ -28,9 +30,11 @@ impl Inbox {
         self.replication.insert((frame.tick, frame.from), frame);
     }
 
-    /// Keeps an events frame (one per sender and tick, as for replication).
-    pub(crate) fn add_events(&mut self, frame: PhysicsEventsFrame) {
-        self.events.insert((frame.tick, frame.from), frame);
+    /// Keeps an events frame received at `received_ns` (one per sender and tick, as for
+    /// replication).
+    pub(crate) fn add_events(&mut self, frame: PhysicsEventsFrame, received_ns: u64) {
+        self.events
+            .insert((frame.tick, frame.from), (frame, received_ns));
     }
 
     /// The first of `neighbours` whose frame tagged `tick` is missing, and which kind.

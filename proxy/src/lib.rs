@@ -98,11 +98,14 @@
 //! - `config` — [`ClusterConfig`], [`Region`], [`ProxyMode`], [`CustomProxy`].
 //! - `inbox` — frames by sender and step count, for lock-step.
 //! - `lockstep` — [`lockstep_round`]: N clusters of one process, tick by tick.
+//! - `clock` — the host monotonic clock ([`monotonic_ns`]) and routed-op stage times
+//!   ([`OpTiming`]: issued, published, received, applied).
 //! - `channels` — channel names ([`replication`], [`physics_events`]).
 //! - `stats` — [`ClusterStats`].
 //! - `error` — [`ClusterError`].
 
 mod channels;
+mod clock;
 mod cluster;
 mod config;
 mod error;
@@ -111,7 +114,8 @@ mod lockstep;
 mod stats;
 
 pub use channels::{physics_events, replication};
-pub use cluster::Cluster;
+pub use clock::{OpTiming, monotonic_ns};
+pub use cluster::{Cluster, MAX_OP_TIMINGS};
 pub use config::{ClusterConfig, CustomProxy, ProxyMode, Region};
 pub use error::ClusterError;
 pub use lockstep::lockstep_round;

@@ -30,4 +30,6 @@ pub struct ClusterStats {
     pub frames_malformed: u64,
     /// States ignored: sent by a cluster that is not the entity's owner, or invalid.
     pub states_rejected: u64,
+    /// Op timings not kept because the caller did not take them (see `Cluster::take_op_timings`).
+    pub op_timings_dropped: u64,
 }

@@ -2,7 +2,7 @@
 
 use seam_sim::wire::{
     self, BodyShape, ClusterId, ContactReport, EntityId, EntityState, PhysicsEventsFrame,
-    PhysicsOp, ReplicationFrame, Shape, WIRE_VERSION, WireError,
+    PhysicsOp, ReplicationFrame, RoutedOp, Shape, WIRE_VERSION, WireError,
 };
 
 fn state(i: u32) -> EntityState {
@@ -41,37 +41,47 @@ fn replication() -> ReplicationFrame {
 
 fn events() -> PhysicsEventsFrame {
     let target = EntityId::from_u128(3);
+    let ops = vec![
+        PhysicsOp::Impulse {
+            target,
+            impulse: [1.0, 2.0, 3.0],
+        },
+        PhysicsOp::Force {
+            target,
+            force: [0.0, 9.0, 0.0],
+        },
+        PhysicsOp::TorqueImpulse {
+            target,
+            torque_impulse: [0.1, 0.0, 0.0],
+        },
+        PhysicsOp::SetTranslation {
+            target,
+            translation: [5.0, 5.0, 5.0],
+        },
+        PhysicsOp::SetLinvel {
+            target,
+            linvel: [0.0, 0.0, -1.0],
+        },
+        PhysicsOp::SetAngvel {
+            target,
+            angvel: [0.0, 3.0, 0.0],
+        },
+        PhysicsOp::Wake { target },
+        PhysicsOp::Sleep { target },
+    ];
     PhysicsEventsFrame {
         from: ClusterId::from_u128(9),
         tick: 100,
-        ops: vec![
-            PhysicsOp::Impulse {
-                target,
-                impulse: [1.0, 2.0, 3.0],
-            },
-            PhysicsOp::Force {
-                target,
-                force: [0.0, 9.0, 0.0],
-            },
-            PhysicsOp::TorqueImpulse {
-                target,
-                torque_impulse: [0.1, 0.0, 0.0],
-            },
-            PhysicsOp::SetTranslation {
-                target,
-                translation: [5.0, 5.0, 5.0],
-            },
-            PhysicsOp::SetLinvel {
-                target,
-                linvel: [0.0, 0.0, -1.0],
-            },
-            PhysicsOp::SetAngvel {
-                target,
-                angvel: [0.0, 3.0, 0.0],
-            },
-            PhysicsOp::Wake { target },
-            PhysicsOp::Sleep { target },
-        ],
+        published_ns: 123_456_789,
+        ops: ops
+            .into_iter()
+            .enumerate()
+            .map(|(i, op)| RoutedOp {
+                op,
+                issued_ns: 1000 + i as u64,
+                issued_tick: 99,
+            })
+            .collect(),
         contacts: vec![ContactReport {
             a: target,
             b: EntityId::from_u128(4),

@@ -45,6 +45,7 @@ on_every_transport!(
     only_the_region_is_modelled,
     custom_proxy_hook_moves_proxies,
     third_cluster_routes_to_the_new_owner,
+    routed_ops_carry_their_stage_times,
 );
 
 fn run(backend: Backend, test: fn(&TestContext)) {
@@ -630,4 +631,41 @@ fn third_cluster_routes_to_the_new_owner(ctx: &TestContext) {
         0,
         "nothing went to A"
     );
+}
+
+/// Every applied op reports when it was issued, published, received and applied, in that
+/// order, on the host clock, and the ticks it took.
+fn routed_ops_carry_their_stage_times(ctx: &TestContext) {
+    let mut clusters = pair(ctx, false, |_| {});
+    let target = ball([0.0; 3], [0.0; 3]);
+    clusters[0]
+        .spawn_owned(&target, BodyRole::Dynamic)
+        .expect("spawn");
+    rounds(&mut clusters, 2);
+    let before = seam_proxy::monotonic_ns();
+    for _ in 0..5 {
+        lockstep_round(&mut clusters, TIMEOUT, |index, _, physics| {
+            if index == 1 {
+                physics
+                    .apply_impulse(target.id, [1.0, 0.0, 0.0])
+                    .expect("routed");
+                physics.wake(target.id).expect("routed");
+            }
+        })
+        .expect("round");
+    }
+    rounds(&mut clusters, 2);
+    let after = seam_proxy::monotonic_ns();
+    let timings = clusters[0].take_op_timings();
+    assert_eq!(timings.len(), 10);
+    for t in &timings {
+        assert!(before <= t.issued_ns, "{t:?}");
+        assert!(t.issued_ns <= t.published_ns, "{t:?}");
+        assert!(t.published_ns <= t.received_ns, "{t:?}");
+        assert!(t.received_ns <= t.applied_ns, "{t:?}");
+        assert!(t.applied_ns <= after, "{t:?}");
+        // In lock-step B writes at its tick n, A applies at its tick n + 1.
+        assert_eq!(t.applied_tick, t.issued_tick + 1, "{t:?}");
+    }
+    assert!(clusters[0].take_op_timings().is_empty(), "taken once");
 }

@@ -192,6 +192,18 @@ impl PhysicsOp {
     }
 }
 
+/// A write on its way to the entity's owner, with when it was issued.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RoutedOp {
+    /// The write.
+    pub op: PhysicsOp,
+    /// When user code made the write: nanoseconds of the host's monotonic clock (shared by
+    /// every process of one host; meaningless across hosts).
+    pub issued_ns: u64,
+    /// The issuing cluster's tick when it made the write.
+    pub issued_tick: u64,
+}
+
 /// A contact that started or stopped between two entities.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct ContactReport {
@@ -225,9 +237,11 @@ pub struct PhysicsEventsFrame {
     pub from: ClusterId,
     /// Its tick.
     pub tick: u64,
+    /// When the frame was handed to the transport: host monotonic clock, nanoseconds.
+    pub published_ns: u64,
     /// Writes on entities the destination owns.
     #[serde(deserialize_with = "grow_as_decoded")]
-    pub ops: Vec<PhysicsOp>,
+    pub ops: Vec<RoutedOp>,
     /// Contacts between the sender's bodies and its proxies of the destination's entities.
     #[serde(deserialize_with = "grow_as_decoded")]
     pub contacts: Vec<ContactReport>,
