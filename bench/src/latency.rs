@@ -1,7 +1,7 @@
 //! Latency samples and their summary.
 
 use hdrhistogram::Histogram;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Records latencies in nanoseconds, from 1 ns to 60 s at 3 significant digits.
 pub struct LatencyRecorder {
@@ -37,7 +37,7 @@ impl LatencyRecorder {
 }
 
 /// Percentiles of a latency distribution, in nanoseconds.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
 pub struct LatencySummary {
     /// Number of samples.
     pub samples: u64,

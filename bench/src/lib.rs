@@ -8,8 +8,12 @@
 //! - `src/main.rs` — the `seam` CLI (clap): subcommands and their flags.
 //! - [`ping`] — `seam ping`: one-way latency between two processes over any transport, with
 //!   plain iceoryx2 as the floor.
+//! - [`ops`] — `seam ops`: routed-op latency between two processes, stage by stage.
+//! - [`wait`] — spinning or sleeping for the next message ([`wait::WaitMode`]).
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.
 //! - `benches/bench_transport.rs` — in-process publish → receive per backend (criterion).
 
 pub mod latency;
+pub mod ops;
 pub mod ping;
+pub mod wait;

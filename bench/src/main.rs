@@ -3,6 +3,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use seam_bench::ops::{self, OpsPlan};
 use seam_bench::ping::{self, PingPlan, WaitMode};
 
 #[derive(Parser)]
@@ -51,6 +52,46 @@ enum Command {
         /// Skip the plain-iceoryx2 floor rows.
         #[arg(long)]
         no_floor: bool,
+    },
+    /// Measure routed-op latency between two processes, stage by stage, per transport.
+    ///
+    /// This process issues batches of impulses on an entity a child process owns, as real
+    /// physics-events frames; the owner applies each frame as soon as it arrives (no tick wait)
+    /// and acknowledges it. Stamps on the host monotonic clock give each op's stages: queue
+    /// (issued → published), transport (published → received), apply (received → applied) and
+    /// the whole. Prints p50 / p99 / p99.9 per stage and ops per second, and the redis / shm
+    /// ratio of the transport stage.
+    Ops {
+        /// Transports to compare, comma separated (`redis` alone means redis://127.0.0.1:6379).
+        #[arg(long, default_value = "shm", value_delimiter = ',')]
+        transport: Vec<String>,
+        /// Ops per frame, comma separated.
+        #[arg(long, default_value = "1,16,256", value_delimiter = ',')]
+        batch: Vec<usize>,
+        /// Timed frames per row.
+        #[arg(long, default_value_t = 10_000)]
+        rounds: u64,
+        /// Untimed frames before them.
+        #[arg(long, default_value_t = 1_000)]
+        warmup: u64,
+        /// How both sides wait: auto spins on shared memory and sleeps on Redis.
+        #[arg(long, value_enum, default_value_t = WaitMode::Auto)]
+        wait: WaitMode,
+        /// Print one JSON object per row instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// The owning side of `seam ops` (started by it).
+    #[command(hide = true)]
+    OpsOwner {
+        #[arg(long)]
+        transport: String,
+        #[arg(long)]
+        events: String,
+        #[arg(long)]
+        ack: String,
+        #[arg(long, value_enum)]
+        wait: WaitMode,
     },
     /// The peer side of `seam ping` (started by it).
     #[command(hide = true)]
@@ -137,6 +178,46 @@ fn main() -> ExitCode {
             })
             .map_err(|e| e.to_string())
         }
+        Command::Ops {
+            transport,
+            batch,
+            rounds,
+            warmup,
+            wait,
+            json,
+        } => {
+            let plan = OpsPlan {
+                transports: transport.iter().map(|t| expand_transport(t)).collect(),
+                batches: batch,
+                rounds,
+                warmup,
+                wait,
+            };
+            let total = plan.transports.len() * plan.batches.len();
+            eprintln!(
+                "seam ops: {rounds} timed frames per row after {warmup} warm-up, one frame in flight"
+            );
+            let mut done = 0;
+            ops::run(&plan, |row| {
+                done += 1;
+                eprintln!("[{done}/{total}] {row}");
+            })
+            .map(|rows| {
+                if json {
+                    for row in &rows {
+                        println!("{}", serde_json::to_string(row).expect("rows serialise"));
+                    }
+                } else {
+                    print!("{}", ops::table(&rows));
+                }
+            })
+        }
+        Command::OpsOwner {
+            transport,
+            events,
+            ack,
+            wait,
+        } => ops::run_owner(&transport, &events, &ack, wait),
         Command::PingPeer {
             transport,
             ping,

@@ -12,46 +12,14 @@
 mod floor;
 mod peer;
 
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use serde::Serialize;
 
 use crate::latency::{LatencyRecorder, LatencySummary, micros};
+pub use crate::wait::WaitMode;
 pub use floor::run_floor_peer;
 pub use peer::run_peer;
-
-/// How a side waits for the next message.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum WaitMode {
-    /// Spin on shared memory, sleep on Redis (spinning clients would starve the server of CPU
-    /// on a small host).
-    Auto,
-    /// Poll without sleeping: lowest latency, one core per side.
-    Spin,
-    /// Sleep in the transport until woken.
-    Block,
-}
-
-impl WaitMode {
-    /// The mode `Auto` stands for on `transport`.
-    pub fn resolve(self, transport: &str) -> WaitMode {
-        match self {
-            WaitMode::Auto if transport.starts_with("redis") => WaitMode::Block,
-            WaitMode::Auto => WaitMode::Spin,
-            other => other,
-        }
-    }
-
-    /// The name used in tables and JSON.
-    pub fn name(self) -> &'static str {
-        match self {
-            WaitMode::Auto => "auto",
-            WaitMode::Spin => "spin",
-            WaitMode::Block => "block",
-        }
-    }
-}
 
 /// What `seam ping` measures.
 pub struct PingPlan {
@@ -108,8 +76,7 @@ pub enum PingError {
     },
 }
 
-/// How long the measuring side waits for any one answer before giving up on the peer.
-pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(10);
+pub use crate::wait::ANSWER_TIMEOUT;
 
 /// Channel names of one row, unique to this process and row.
 pub fn channels(row: usize) -> (String, String) {

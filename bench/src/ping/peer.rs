@@ -1,37 +1,11 @@
 //! The ping exchange over a seam transport, both sides.
 
 use std::process::{Child, Command, Stdio};
-use std::time::Instant;
 
-use seam_transport::{Transport, redact_url};
+use seam_transport::redact_url;
 
-use super::{ANSWER_TIMEOUT, PingError, PingPlan, PingRow, WaitMode, channels, time_rounds};
-
-/// Waits for the next message and copies its payload into `buf`.
-fn next_message(
-    transport: &mut dyn Transport,
-    wait: WaitMode,
-    buf: &mut Vec<u8>,
-) -> Result<(), String> {
-    let deadline = Instant::now() + ANSWER_TIMEOUT;
-    let mut polls: u32 = 0;
-    loop {
-        let message = match wait {
-            WaitMode::Block => transport.receive_timeout(ANSWER_TIMEOUT),
-            _ => transport.try_receive(),
-        }
-        .map_err(|e| e.to_string())?;
-        if let Some(message) = message {
-            buf.clear();
-            buf.extend_from_slice(message.payload);
-            return Ok(());
-        }
-        polls = polls.wrapping_add(1);
-        if (wait == WaitMode::Block || polls.is_multiple_of(4096)) && Instant::now() > deadline {
-            return Err(format!("sent no answer within {ANSWER_TIMEOUT:?}"));
-        }
-    }
-}
+use super::{PingError, PingPlan, PingRow, WaitMode, channels, time_rounds};
+use crate::wait::next_message;
 
 /// The peer side: echo `count` messages from `ping` back on `pong`, then wait for the last one.
 pub fn run_peer(

@@ -1,0 +1,263 @@
+//! `seam ops`: how long a routed op takes between two processes, stage by stage, with no tick
+//! wait in the way.
+//!
+//! The issuing side (this process) builds a batch of impulses as [`RoutedOp`]s, each stamped
+//! when made, and publishes them as one `PhysicsEventsFrame` stamped when handed to the
+//! transport, on the owner's `physics_events` channel. The owner (a child process) takes the
+//! frame, stamps it, decodes it straight from the received bytes, applies every op to its
+//! `ClusterSim` at once, stamping each, and acknowledges; the next batch goes out after the
+//! acknowledgement. Stamps are `CLOCK_MONOTONIC`, shared by both processes. The owner reports
+//! the stages at the end:
+//!
+//! - queue: issued → published (building the rest of the batch),
+//! - transport: published → received. "Published" is stamped as the publish call starts, inside
+//!   the frame it stamps, so encoding the frame into the transport's buffer counts here (about
+//!   10 µs for 256 ops); with one op per frame it is negligible.
+//! - apply: received → applied (decoding and applying, up to this op),
+//! - whole: issued → applied.
+
+mod owner;
+
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+use seam_proxy::monotonic_ns;
+use seam_sim::wire::{self, ClusterId, EntityId, PhysicsEventsFrame, PhysicsOp, RoutedOp};
+use seam_transport::redact_url;
+use serde::{Deserialize, Serialize};
+
+use crate::latency::{LatencySummary, micros};
+use crate::wait::{WaitMode, next_message};
+pub use owner::run_owner;
+
+/// The entity every op targets (the owner spawns it).
+pub const TARGET: EntityId = EntityId(uuid_from(1));
+
+const fn uuid_from(n: u128) -> uuid::Uuid {
+    uuid::Uuid::from_u128(n)
+}
+
+/// What `seam ops` measures.
+pub struct OpsPlan {
+    /// Transport URLs.
+    pub transports: Vec<String>,
+    /// Ops per frame.
+    pub batches: Vec<usize>,
+    /// Timed frames per row.
+    pub rounds: u64,
+    /// Untimed frames before them.
+    pub warmup: u64,
+    /// How both sides wait.
+    pub wait: WaitMode,
+}
+
+/// What the owner measured, sent back as one JSON line.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+pub struct StageReport {
+    /// Ops applied in timed frames.
+    pub ops: u64,
+    /// issued → applied.
+    pub whole: LatencySummary,
+    /// issued → published.
+    pub queue: LatencySummary,
+    /// published → received.
+    pub transport: LatencySummary,
+    /// received → applied.
+    pub apply: LatencySummary,
+}
+
+/// One row of results.
+#[derive(Debug, Clone, Serialize)]
+pub struct OpsRow {
+    /// `shm`, `local` or `redis`.
+    pub transport: String,
+    /// How both sides waited.
+    pub wait: &'static str,
+    /// Ops per frame.
+    pub batch: usize,
+    /// Timed frames.
+    pub rounds: u64,
+    /// p50 of the whole (issued → applied), ns.
+    pub p50_ns: u64,
+    /// p99 of the whole, ns.
+    pub p99_ns: u64,
+    /// p99.9 of the whole, ns.
+    pub p999_ns: u64,
+    /// Ops applied per second over the timed frames (one frame in flight at a time).
+    pub ops_per_s: f64,
+    /// Every stage.
+    pub stages: StageReport,
+}
+
+/// Runs every (transport, batch) row, calling `progress` before each.
+pub fn run(plan: &OpsPlan, mut progress: impl FnMut(&str)) -> Result<Vec<OpsRow>, String> {
+    let mut rows = Vec::new();
+    for transport in &plan.transports {
+        let wait = plan.wait.resolve(transport);
+        for &batch in &plan.batches {
+            progress(&format!(
+                "{}, batch {batch}, {}",
+                redact_url(transport),
+                wait.name()
+            ));
+            rows.push(measure(transport, batch, wait, plan, rows.len())?);
+        }
+    }
+    Ok(rows)
+}
+
+fn measure(
+    url: &str,
+    batch: usize,
+    wait: WaitMode,
+    plan: &OpsPlan,
+    row: usize,
+) -> Result<OpsRow, String> {
+    let shown = redact_url(url);
+    let fail = |what: &str, e: String| format!("{shown}: {what}: {e}");
+    let mut transport = seam_transport::open(url).map_err(|e| fail("open", e.to_string()))?;
+    let owner = ClusterId::random();
+    let events = seam_proxy::physics_events(owner);
+    let ack = format!("seam-ops-ack:{}-{row}", std::process::id());
+    transport
+        .subscribe(&ack)
+        .map_err(|e| fail("subscribe", e.to_string()))?;
+    let exe = std::env::current_exe().map_err(|e| fail("peer", e.to_string()))?;
+    let mut child = Command::new(exe)
+        .args([
+            "ops-owner",
+            "--transport",
+            url,
+            "--events",
+            &events,
+            "--ack",
+            &ack,
+        ])
+        .args(["--wait", wait.name()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .spawn()
+        .map_err(|e| fail("cannot start the owner", e.to_string()))?;
+    let mut buf = Vec::new();
+    next_message(transport.as_mut(), WaitMode::Block, &mut buf).map_err(|e| fail("owner", e))?;
+
+    let mut frame = PhysicsEventsFrame {
+        from: ClusterId::random(),
+        tick: 0,
+        published_ns: 0,
+        ops: Vec::with_capacity(batch),
+        contacts: Vec::new(),
+    };
+    let mut started = Instant::now();
+    for round in 0..plan.warmup + plan.rounds {
+        if round == plan.warmup {
+            started = Instant::now();
+        }
+        // Frames tagged 1 are timed; warm-up frames are tagged 0.
+        frame.tick = u64::from(round >= plan.warmup);
+        frame.ops.clear();
+        for _ in 0..batch {
+            frame.ops.push(RoutedOp {
+                op: PhysicsOp::Impulse {
+                    target: TARGET,
+                    impulse: [1e-3, 0.0, 0.0],
+                },
+                issued_ns: monotonic_ns(),
+                issued_tick: round,
+            });
+        }
+        // Sized for the largest stamp (varints grow with the value); stamped at the send.
+        frame.published_ns = u64::MAX;
+        let len = wire::encoded_len(&frame);
+        transport
+            .publish_with(&events, len, &mut |out| {
+                frame.published_ns = monotonic_ns();
+                wire::encode_into(&frame, out).ok()
+            })
+            .map_err(|e| fail("publish", e.to_string()))?;
+        next_message(transport.as_mut(), wait, &mut buf).map_err(|e| fail("owner", e))?;
+    }
+    let elapsed = started.elapsed().as_secs_f64();
+    transport
+        .publish(&events, owner::STOP)
+        .map_err(|e| fail("publish", e.to_string()))?;
+    let mut line = String::new();
+    let stdout = child
+        .stdout
+        .take()
+        .ok_or_else(|| fail("owner", "no stdout".into()))?;
+    BufReader::new(stdout)
+        .read_line(&mut line)
+        .map_err(|e| fail("owner report", e.to_string()))?;
+    let status = child.wait().map_err(|e| fail("owner", e.to_string()))?;
+    if !status.success() {
+        return Err(fail("owner", format!("exited with {status}")));
+    }
+    let stages: StageReport =
+        serde_json::from_str(&line).map_err(|e| fail("owner report", format!("{e}: {line:?}")))?;
+    Ok(OpsRow {
+        transport: transport.backend().name().to_owned(),
+        wait: wait.name(),
+        batch,
+        rounds: plan.rounds,
+        p50_ns: stages.whole.p50_ns,
+        p99_ns: stages.whole.p99_ns,
+        p999_ns: stages.whole.p999_ns,
+        ops_per_s: stages.ops as f64 / elapsed,
+        stages,
+    })
+}
+
+/// The table `seam ops` prints.
+pub fn table(rows: &[OpsRow]) -> String {
+    let mut out = format!(
+        "{:<9} {:<6} {:>5} | {:>9} {:>9} {:>9} | {:>9} | {:>9} {:>9} | {:>9} | {:>10}\n",
+        "transport",
+        "wait",
+        "batch",
+        "whole p50",
+        "p99",
+        "p99.9",
+        "queue p50",
+        "xport p50",
+        "p99",
+        "apply p50",
+        "ops/s"
+    );
+    for r in rows {
+        let s = &r.stages;
+        out += &format!(
+            "{:<9} {:<6} {:>5} | {:>9} {:>9} {:>9} | {:>9} | {:>9} {:>9} | {:>9} | {:>10.0}\n",
+            r.transport,
+            r.wait,
+            r.batch,
+            micros(r.p50_ns),
+            micros(r.p99_ns),
+            micros(r.p999_ns),
+            micros(s.queue.p50_ns),
+            micros(s.transport.p50_ns),
+            micros(s.transport.p99_ns),
+            micros(s.apply.p50_ns),
+            r.ops_per_s
+        );
+    }
+    out += "times in µs; xport = published → received\n";
+    let mut batches: Vec<usize> = rows.iter().map(|r| r.batch).collect();
+    batches.sort_unstable();
+    batches.dedup();
+    for batch in batches {
+        let p50 = |name: &str| {
+            rows.iter()
+                .find(|r| r.transport == name && r.batch == batch)
+                .map(|r| r.stages.transport.p50_ns as f64)
+        };
+        if let (Some(redis), Some(shm)) = (p50("redis"), p50("shm")) {
+            out += &format!(
+                "batch {batch}: transport stage p50 redis / shm = {:.1}\n",
+                redis / shm
+            );
+        }
+    }
+    out
+}
