@@ -8,6 +8,10 @@ use rapier3d::prelude::*;
 use crate::cluster_sim::{BodyRole, EntityInfo};
 use crate::wire::{EntityId, EntityState, PhysicsOp, Shape};
 
+/// Bodies moved or added outside a step whose query bounds are not refreshed yet. Queries
+/// refresh them first ([`refresh_bounds`]); a step refreshes everything itself.
+pub(crate) type StaleBounds = Vec<(RigidBodyHandle, ColliderHandle)>;
+
 /// An entity's body in the world.
 pub(crate) struct Entry {
     pub(crate) body: RigidBodyHandle,
@@ -46,7 +50,12 @@ pub(crate) fn pose_of(position: [f32; 3], rotation: [f32; 4]) -> Pose {
 }
 
 /// Creates the body and collider of a (validated) state.
-pub(crate) fn insert(world: &mut PhysicsWorld, state: &EntityState, role: BodyRole) -> Entry {
+pub(crate) fn insert(
+    world: &mut PhysicsWorld,
+    stale: &mut StaleBounds,
+    state: &EntityState,
+    role: BodyRole,
+) -> Entry {
     let data = state.id.as_u128();
     let body = RigidBodyBuilder::new(role.rapier())
         .pose(pose_of(state.position, state.rotation))
@@ -69,7 +78,7 @@ pub(crate) fn insert(world: &mut PhysicsWorld, state: &EntityState, role: BodyRo
             body: state.body,
         },
     };
-    sync_query_bounds(world, &entry);
+    stale.push((entry.body, entry.collider));
     entry
 }
 
@@ -93,21 +102,33 @@ pub(crate) fn state_of(
     }
 }
 
-/// Brings the collider and the query structure up to date with a body moved outside a step,
-/// so raycasts and shape queries see it before the next step.
-pub(crate) fn sync_query_bounds(world: &mut PhysicsWorld, entry: &Entry) {
-    let pose = *world.bodies[entry.body].position();
-    if let Some(collider) = world.colliders.get_mut(entry.collider) {
-        collider.set_position(pose);
-        let aabb = collider.compute_aabb();
-        world
-            .broad_phase
-            .set_aabb(&world.integration_parameters, entry.collider, aabb);
+/// Brings colliders and the query structure up to date with the bodies moved or added since the
+/// last step, so raycasts and shape queries see them before the next step. Bodies removed
+/// meanwhile are skipped.
+pub(crate) fn refresh_bounds(world: &mut PhysicsWorld, stale: &mut StaleBounds) {
+    for (body, collider_handle) in stale.drain(..) {
+        let Some(body) = world.bodies.get(body) else {
+            continue;
+        };
+        let pose = *body.position();
+        if let Some(collider) = world.colliders.get_mut(collider_handle) {
+            collider.set_position(pose);
+            let aabb = collider.compute_aabb();
+            world
+                .broad_phase
+                .set_aabb(&world.integration_parameters, collider_handle, aabb);
+        }
     }
 }
 
 /// Moves a body to a (validated) replicated state as its role allows.
-pub(crate) fn apply_state(world: &mut PhysicsWorld, entry: &Entry, state: &EntityState, dt: f32) {
+pub(crate) fn apply_state(
+    world: &mut PhysicsWorld,
+    stale: &mut StaleBounds,
+    entry: &Entry,
+    state: &EntityState,
+    dt: f32,
+) {
     let target = pose_of(state.position, state.rotation);
     let linvel = Vector::from_array(state.linvel);
     let angvel = Vector::from_array(state.angvel);
@@ -139,11 +160,16 @@ pub(crate) fn apply_state(world: &mut PhysicsWorld, entry: &Entry, state: &Entit
             return;
         }
     }
-    sync_query_bounds(world, entry);
+    stale.push((entry.body, entry.collider));
 }
 
 /// Applies a (validated) write.
-pub(crate) fn apply_op(world: &mut PhysicsWorld, entry: &Entry, op: &PhysicsOp) {
+pub(crate) fn apply_op(
+    world: &mut PhysicsWorld,
+    stale: &mut StaleBounds,
+    entry: &Entry,
+    op: &PhysicsOp,
+) {
     let body = &mut world.bodies[entry.body];
     let vector = |v: [f32; 3]| Vector::from_array(v);
     match *op {
@@ -154,7 +180,7 @@ pub(crate) fn apply_op(world: &mut PhysicsWorld, entry: &Entry, op: &PhysicsOp) 
         }
         PhysicsOp::SetTranslation { translation, .. } => {
             body.set_translation(vector(translation), true);
-            sync_query_bounds(world, entry);
+            stale.push((entry.body, entry.collider));
         }
         PhysicsOp::SetLinvel { linvel, .. } => body.set_linvel(vector(linvel), true),
         PhysicsOp::SetAngvel { angvel, .. } => body.set_angvel(vector(angvel), true),

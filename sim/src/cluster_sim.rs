@@ -2,7 +2,7 @@
 
 use rapier3d::prelude::*;
 
-use crate::body::{self, Entry};
+use crate::body::{self, Entry, StaleBounds};
 use crate::contacts::{ContactCollector, ContactEvent};
 use crate::error::SimError;
 use crate::handle::{Joints, PhysicsHandle, TickContext, WriteRouter};
@@ -81,6 +81,8 @@ pub struct ClusterSim {
     world: PhysicsWorld,
     entities: IdMap<EntityId, Entry>,
     joints: Joints,
+    /// Bodies whose query bounds wait for the next query or step.
+    stale: StaleBounds,
     /// Where the next replicated state's entity probably is (see `index_of`).
     next_index: usize,
     tick: u64,
@@ -101,6 +103,7 @@ impl ClusterSim {
             world,
             entities: IdMap::default(),
             joints: Joints::default(),
+            stale: StaleBounds::new(),
             next_index: 0,
             tick: 0,
             collector: ContactCollector::default(),
@@ -166,7 +169,7 @@ impl ClusterSim {
         if self.entities.contains_key(&state.id) {
             return Err(SimError::DuplicateEntity(state.id));
         }
-        let entry = body::insert(&mut self.world, state, role);
+        let entry = body::insert(&mut self.world, &mut self.stale, state, role);
         self.entities.insert(state.id, entry);
         Ok(())
     }
@@ -225,7 +228,13 @@ impl ClusterSim {
             .get_index_mut(index)
             .ok_or(SimError::UnknownEntity(state.id))?;
         entry.info.cluster_id = state.cluster_id;
-        body::apply_state(&mut self.world, entry, state, self.config.dt);
+        body::apply_state(
+            &mut self.world,
+            &mut self.stale,
+            entry,
+            state,
+            self.config.dt,
+        );
         Ok(())
     }
 
@@ -254,7 +263,7 @@ impl ClusterSim {
             .entities
             .get(&op.target())
             .ok_or(SimError::UnknownEntity(op.target()))?;
-        body::apply_op(&mut self.world, entry, op);
+        body::apply_op(&mut self.world, &mut self.stale, entry, op);
         Ok(())
     }
 
@@ -275,6 +284,7 @@ impl ClusterSim {
             world: &mut self.world,
             entities: &self.entities,
             joints: &mut self.joints,
+            stale: &mut self.stale,
             router,
         };
         (context, handle)
@@ -292,6 +302,8 @@ impl ClusterSim {
 
     /// Advances the world by one step and collects the contacts that started or stopped.
     pub fn step(&mut self) {
+        // The step brings every moved body's bounds up to date itself.
+        self.stale.clear();
         self.world.step_with_events(&(), &self.collector);
         self.collector.drain_into(&mut self.contacts);
         self.tick += 1;

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 
 use rapier3d::prelude::*;
 
-use crate::body::{self, Entry};
+use crate::body::{self, Entry, StaleBounds};
 use crate::cluster_sim::EntityInfo;
 use crate::contacts::ContactEvent;
 use crate::error::SimError;
@@ -146,6 +146,7 @@ pub struct PhysicsHandle<'a> {
     pub(crate) world: &'a mut PhysicsWorld,
     pub(crate) entities: &'a IdMap<EntityId, Entry>,
     pub(crate) joints: &'a mut Joints,
+    pub(crate) stale: &'a mut StaleBounds,
     pub(crate) router: &'a mut dyn WriteRouter,
 }
 
@@ -177,9 +178,10 @@ impl PhysicsHandle<'_> {
 
     /// The first body hit by the ray from `origin` along `direction`, up to `max_toi` times the
     /// direction's length, leaving out `exclude` (typically the shooter). Proxies are hit like
-    /// any body.
+    /// any body, where they are now: bodies moved or added since the last step have their query
+    /// bounds refreshed first (once; a tick without queries skips that work).
     pub fn raycast(
-        &self,
+        &mut self,
         origin: [f32; 3],
         direction: [f32; 3],
         max_toi: f32,
@@ -189,6 +191,7 @@ impl PhysicsHandle<'_> {
         if !finite(origin) || !finite(direction) || !max_toi.is_finite() || max_toi < 0.0 {
             return None;
         }
+        body::refresh_bounds(self.world, self.stale);
         let excluded = exclude
             .and_then(|id| self.entities.get(&id))
             .map(|e| e.body);
@@ -212,11 +215,12 @@ impl PhysicsHandle<'_> {
     /// The entities whose shapes intersect `shape` placed at `position` with `rotation`, in id
     /// order.
     pub fn intersections_with_shape(
-        &self,
+        &mut self,
         shape: &Shape,
         position: [f32; 3],
         rotation: [f32; 4],
     ) -> Vec<EntityId> {
+        body::refresh_bounds(self.world, self.stale);
         let collider = body::collider_for(shape).build();
         let pose = body::pose_of(position, rotation);
         let mut hits: Vec<EntityId> = self
@@ -237,7 +241,7 @@ impl PhysicsHandle<'_> {
             .get(&op.target())
             .ok_or(SimError::UnknownEntity(op.target()))?;
         if entry.info.cluster_id == self.cluster_id {
-            body::apply_op(self.world, entry, &op);
+            body::apply_op(self.world, self.stale, entry, &op);
             Ok(WriteOutcome::Applied)
         } else {
             self.router.route(entry.info.cluster_id, op)?;

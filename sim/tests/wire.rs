@@ -184,3 +184,15 @@ fn flipped_bits_never_panic() {
         let _ = wire::decode::<ReplicationFrame>(&corrupted);
     }
 }
+
+#[test]
+fn max_encoded_len_bounds_every_frame() {
+    let mut frame = replication();
+    for state in &mut frame.states {
+        state.tick = u64::MAX;
+    }
+    assert!(wire::encoded_len(&frame) <= frame.max_encoded_len());
+    frame.states.clear();
+    frame.tick = u64::MAX;
+    assert!(wire::encoded_len(&frame) <= frame.max_encoded_len());
+}

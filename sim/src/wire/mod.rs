@@ -300,6 +300,19 @@ where
     deserializer.deserialize_seq(Grow(std::marker::PhantomData))
 }
 
+/// Most bytes one [`EntityState`] can take: the 84-byte block with its length byte, a 10-byte
+/// varint tick, the largest shape (tag and three floats), density and CCD flag.
+pub const MAX_STATE_LEN: usize = 1 + 84 + 10 + 1 + 12 + 4 + 1;
+
+impl ReplicationFrame {
+    /// An upper bound of the encoded size, without encoding: size a transport buffer with it
+    /// and publish only what [`encode_into`] writes.
+    pub fn max_encoded_len(&self) -> usize {
+        // Version, `from`, tick and list length (varints of at most 10 bytes), then the states.
+        1 + 16 + 10 + 10 + self.states.len() * MAX_STATE_LEN
+    }
+}
+
 /// Encoded size of `frame` in bytes, version byte included.
 pub fn encoded_len<T: Serialize>(frame: &T) -> usize {
     1 + postcard::serialize_with_flavor(frame, postcard::ser_flavors::Size::default()).unwrap_or(0)

@@ -31,7 +31,7 @@ impl Default for IceoryxConfig {
     fn default() -> Self {
         Self {
             prefix: "seam_".to_owned(),
-            max_payload: 1 << 20,
+            max_payload: 4 << 20,
             initial_payload: 4096,
             max_publishers: 16,
             max_subscribers: 16,

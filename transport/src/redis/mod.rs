@@ -34,7 +34,7 @@ pub struct RedisConfig {
 impl Default for RedisConfig {
     fn default() -> Self {
         Self {
-            max_payload: 1 << 20,
+            max_payload: 4 << 20,
             timeout: Duration::from_secs(5),
         }
     }

@@ -1,0 +1,140 @@
+//! Frames on the wire and through a transport.
+//!
+//! `cargo bench -p seam-bench --bench bench_replication`:
+//! - `op_batch`: encoding and decoding a physics-events frame of 1, 16 and 256 routed ops.
+//! - `replication_10k_end_to_end`: one replication frame of 10 000 states, encoded straight into
+//!   the transport's buffer, published, received, decoded from the received bytes and applied
+//!   to 10 000 Fixed proxies — on `local` and on `shm`, both ends in this process.
+
+// criterion_group! generates a public function without docs.
+#![allow(missing_docs)]
+
+use std::time::Duration;
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use seam_sim::wire::{
+    self, BodyShape, ClusterId, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp,
+    ReplicationFrame, RoutedOp, Shape,
+};
+use seam_sim::{BodyRole, ClusterSim, SimConfig};
+
+const STATES: usize = 10_000;
+
+fn events(batch: usize) -> PhysicsEventsFrame {
+    PhysicsEventsFrame {
+        from: ClusterId::from_u128(1),
+        tick: 7,
+        published_ns: 1_000_000_000,
+        ops: (0..batch)
+            .map(|i| RoutedOp {
+                op: PhysicsOp::Impulse {
+                    target: EntityId::from_u128(i as u128 + 10),
+                    impulse: [1.0, 2.0, 3.0],
+                },
+                issued_ns: 999_000_000 + i as u64,
+                issued_tick: 7,
+            })
+            .collect(),
+        contacts: Vec::new(),
+    }
+}
+
+fn op_batch(c: &mut Criterion) {
+    let mut group = c.benchmark_group("op_batch");
+    for batch in [1usize, 16, 256] {
+        let frame = events(batch);
+        let bytes = wire::encode(&frame);
+        let mut buffer = vec![0u8; bytes.len()];
+        group.throughput(Throughput::Elements(batch as u64));
+        group.bench_with_input(BenchmarkId::new("encode", batch), &batch, |b, _| {
+            b.iter(|| wire::encode_into(&frame, &mut buffer).expect("fits"))
+        });
+        group.bench_with_input(BenchmarkId::new("decode", batch), &batch, |b, _| {
+            b.iter(|| wire::decode::<PhysicsEventsFrame>(&bytes).expect("valid"))
+        });
+    }
+    group.finish();
+}
+
+fn state(i: usize, owner: ClusterId) -> EntityState {
+    EntityState {
+        id: EntityId::from_u128(i as u128 + 1),
+        cluster_id: owner,
+        tick: 1,
+        position: [(i % 100) as f32 * 3.0, 0.0, (i / 100) as f32 * 3.0],
+        rotation: [0.0, 0.0, 0.0, 1.0],
+        linvel: [0.5, 0.0, 0.0],
+        angvel: [0.0; 3],
+        body: BodyShape {
+            shape: Shape::Ball { radius: 0.5 },
+            density: 1000.0,
+            ccd: false,
+        },
+    }
+}
+
+fn end_to_end(c: &mut Criterion) {
+    let mut group = c.benchmark_group("replication_10k_end_to_end");
+    group
+        .sample_size(50)
+        .measurement_time(Duration::from_secs(6));
+    group.throughput(Throughput::Elements(STATES as u64));
+    let owner = ClusterId::from_u128(1);
+    let mut frame = ReplicationFrame {
+        from: owner,
+        tick: 1,
+        states: (0..STATES).map(|i| state(i, owner)).collect(),
+    };
+    for backend in ["local", "shm"] {
+        let url = format!("{backend}?prefix=seam_bench_repl_{}_", std::process::id());
+        let mut publisher = seam_transport::open(&url).expect("open");
+        let mut subscriber = seam_transport::open(&url).expect("open");
+        let channel = seam_proxy::replication(owner);
+        subscriber.subscribe(&channel).expect("subscribe");
+        let mut proxies = ClusterSim::new(SimConfig::new(ClusterId::from_u128(2)));
+        for state in &frame.states {
+            proxies.spawn(state, BodyRole::Fixed).expect("proxy");
+        }
+        let mut tick = 1u64;
+        group.bench_function(backend, |b| {
+            b.iter(|| {
+                tick += 1;
+                frame.tick = tick;
+                for state in &mut frame.states {
+                    state.position[0] += 0.01;
+                }
+                let len = frame.max_encoded_len();
+                publisher
+                    .publish_with(&channel, len, &mut |out| {
+                        wire::encode_into(&frame, out).ok()
+                    })
+                    .expect("publish");
+                let message = subscriber
+                    .receive_timeout(Duration::from_secs(5))
+                    .expect("receive")
+                    .expect("the frame arrives");
+                let received: ReplicationFrame = wire::decode(message.payload).expect("valid");
+                for state in &received.states {
+                    proxies.apply_state(state).expect("proxy update");
+                }
+            })
+        });
+    }
+    // The last stage alone: applying the 10 000 states to the proxies.
+    let mut proxies = ClusterSim::new(SimConfig::new(ClusterId::from_u128(2)));
+    for state in &frame.states {
+        proxies.spawn(state, BodyRole::Fixed).expect("proxy");
+    }
+    group.bench_function("apply_only", |b| {
+        b.iter(|| {
+            for state in &mut frame.states {
+                state.position[0] += 0.01;
+                proxies.apply_state(state).expect("proxy update");
+            }
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, op_batch, end_to_end);
+criterion_main!(benches);
