@@ -81,6 +81,15 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Check scene files and summarise them (clusters, entities, events, ticks).
+    ///
+    /// A bad file is reported as FILE:LINE:COLUMN with the field and what is wrong. The format
+    /// is described in `bench/src/scene/mod.rs`; `bench/scenes/` has `crossfire` and `grid`.
+    Scene {
+        /// Scene files (TOML).
+        #[arg(required = true)]
+        files: Vec<std::path::PathBuf>,
+    },
     /// The owning side of `seam ops` (started by it).
     #[command(hide = true)]
     OpsOwner {
@@ -212,6 +221,20 @@ fn main() -> ExitCode {
                 }
             })
         }
+        Command::Scene { files } => files.iter().try_for_each(|file| {
+            let scene = seam_bench::scene::load(file).map_err(|e| e.to_string())?;
+            let entities: u64 = scene.entities.iter().map(|e| e.copies()).sum();
+            println!(
+                "{}: scene {:?}: {} clusters, {entities} entities, {} events, {} ticks of {:.4} s",
+                file.display(),
+                scene.name,
+                scene.clusters.len(),
+                scene.events.len(),
+                scene.ticks,
+                scene.dt
+            );
+            Ok(())
+        }),
         Command::OpsOwner {
             transport,
             events,

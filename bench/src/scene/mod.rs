@@ -1,0 +1,115 @@
+//! Scenes: what a run simulates, in a small TOML format (`bench/scenes/*.toml`).
+//!
+//! A scene names its clusters (each with the region it observes), its entities (shape, mass,
+//! pose, velocity, owner, role, CCD; `grid` repeats one entity over a lattice), and scripted
+//! events by tick: a projectile, an explosion (impulses on everything within a radius), a
+//! raycast volley, a hand-off of authority. An entity walking across a region boundary is just
+//! an entity with a velocity. A scene models what it needs and nothing more.
+//!
+//! ```toml
+//! name = "example"
+//! ticks = 600
+//!
+//! [[cluster]]
+//! name = "west"
+//! region = { min = [-50, -10, -50], max = [0, 50, 50] }
+//! spread = 2.0
+//!
+//! [[entity]]
+//! name = "crate"
+//! owner = "west"
+//! shape = { kind = "cuboid", half_extents = [0.5, 0.5, 0.5] }
+//! mass = 20.0
+//! position = [-5, 0.5, 0]
+//!
+//! [[event]]
+//! tick = 60
+//! kind = "explosion"
+//! by = "west"
+//! center = [-5, 0, 0]
+//! radius = 4.0
+//! impulse = 200.0
+//! ```
+//!
+//! Loading checks everything a run relies on (known clusters and entities, finite numbers,
+//! positive sizes) and reports a bad file as `FILE:LINE:COLUMN: field \`NAME\`: what is wrong`.
+
+mod model;
+
+pub use model::{Cluster, Entity, Event, Grid, Region, Role, Scene, SceneShape, Vec3};
+
+use std::path::Path;
+
+/// Why a scene file cannot be used.
+#[derive(Debug, thiserror::Error)]
+#[error("{file}:{line}:{column}: {message}")]
+pub struct SceneError {
+    /// The file.
+    pub file: String,
+    /// 1-based line of the offending value.
+    pub line: usize,
+    /// 1-based column.
+    pub column: usize,
+    /// What is wrong, naming the field.
+    pub message: String,
+}
+
+/// Line and column (1-based) of byte `offset` in `text`.
+fn position(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+    (line, column)
+}
+
+/// The key written on the line holding byte `offset` (`key = value`), if any.
+fn key_at(text: &str, offset: usize) -> Option<&str> {
+    let offset = offset.min(text.len());
+    let start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let end = text[offset..].find('\n').map_or(text.len(), |i| offset + i);
+    let line = &text[start..end];
+    let key = line.split('=').next()?.trim();
+    (line.contains('=') && !key.is_empty() && !key.starts_with('[')).then_some(key)
+}
+
+/// Reads and checks a scene file.
+pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+        file: file.clone(),
+        line: 0,
+        column: 0,
+        message: format!("cannot read: {e}"),
+    })?;
+    parse(&file, &text)
+}
+
+/// Parses and checks scene `text`; `file` names it in errors.
+pub fn parse(file: &str, text: &str) -> Result<Scene, SceneError> {
+    let error_at = |offset: usize, message: String| {
+        let (line, column) = position(text, offset);
+        SceneError {
+            file: file.to_owned(),
+            line,
+            column,
+            message,
+        }
+    };
+    let scene: Scene = toml::from_str(text).map_err(|e| {
+        let offset = e.span().map_or(0, |span| span.start);
+        let message = e.message().trim().to_owned();
+        match key_at(text, offset) {
+            Some(key) if !message.contains(&format!("`{key}`")) => {
+                error_at(offset, format!("field `{key}`: {message}"))
+            }
+            _ => error_at(offset, message),
+        }
+    })?;
+    scene
+        .check(text)
+        .map_err(|(offset, message)| error_at(offset, message))?;
+    Ok(scene)
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,430 @@
+//! The scene file's types and the checks a run relies on.
+
+use serde::Deserialize;
+
+/// x, y, z.
+pub type Vec3 = [f32; 3];
+
+/// A whole scene.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// The scene's name.
+    pub name: String,
+    /// How many ticks a run lasts.
+    #[serde(default = "default_ticks")]
+    pub ticks: u64,
+    /// Step length, seconds.
+    #[serde(default = "default_dt")]
+    pub dt: f32,
+    /// Gravity, m/s².
+    #[serde(default = "default_gravity")]
+    pub gravity: Vec3,
+    /// The clusters, one pod each.
+    #[serde(rename = "cluster")]
+    pub clusters: Vec<Cluster>,
+    /// The entities.
+    #[serde(rename = "entity", default)]
+    pub entities: Vec<Entity>,
+    /// Scripted events.
+    #[serde(rename = "event", default)]
+    pub events: Vec<Event>,
+}
+
+fn default_ticks() -> u64 {
+    600
+}
+
+fn default_dt() -> f32 {
+    1.0 / 60.0
+}
+
+fn default_gravity() -> Vec3 {
+    [0.0, -9.81, 0.0]
+}
+
+/// One cluster and the part of the world it observes.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Cluster {
+    /// Its name in this scene.
+    pub name: String,
+    /// The region it observes.
+    pub region: Region,
+    /// How far beyond the region neighbour entities are still modelled, metres.
+    #[serde(default)]
+    pub spread: f32,
+}
+
+/// An axis-aligned box.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Region {
+    /// Lowest corner.
+    pub min: Vec3,
+    /// Highest corner.
+    pub max: Vec3,
+}
+
+/// A collision shape.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum SceneShape {
+    /// A sphere.
+    Ball {
+        /// Radius, m.
+        radius: f32,
+    },
+    /// A box.
+    Cuboid {
+        /// Half sizes, m.
+        half_extents: Vec3,
+    },
+    /// A capsule along y.
+    Capsule {
+        /// Half the straight part, m.
+        half_height: f32,
+        /// Radius, m.
+        radius: f32,
+    },
+}
+
+impl SceneShape {
+    /// Volume in m³.
+    pub fn volume(&self) -> f32 {
+        use std::f32::consts::PI;
+        match *self {
+            SceneShape::Ball { radius } => 4.0 / 3.0 * PI * radius.powi(3),
+            SceneShape::Cuboid {
+                half_extents: [x, y, z],
+            } => 8.0 * x * y * z,
+            SceneShape::Capsule {
+                half_height,
+                radius,
+            } => PI * radius * radius * (2.0 * half_height + 4.0 / 3.0 * radius),
+        }
+    }
+
+    fn sizes(&self) -> Vec<f32> {
+        match *self {
+            SceneShape::Ball { radius } => vec![radius],
+            SceneShape::Cuboid { half_extents } => half_extents.to_vec(),
+            SceneShape::Capsule {
+                half_height,
+                radius,
+            } => vec![half_height.max(f32::MIN_POSITIVE), radius],
+        }
+    }
+}
+
+/// How the owner simulates an entity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    /// Simulated.
+    #[default]
+    Dynamic,
+    /// Scenery that does not move.
+    Fixed,
+    /// Moved by its velocity only.
+    Kinematic,
+}
+
+/// Repeats an entity over a lattice: `count` along x, y, z, `spacing` apart.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Grid {
+    /// Copies along x, y, z.
+    pub count: [u32; 3],
+    /// Distance between copies, m.
+    pub spacing: Vec3,
+}
+
+/// An entity (or, with `grid`, a lattice of them).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Entity {
+    /// Its name in this scene (copies of a grid get `name#i`).
+    pub name: String,
+    /// The cluster that owns it at the start.
+    pub owner: String,
+    /// Collision shape.
+    pub shape: SceneShape,
+    /// Mass, kg.
+    pub mass: f32,
+    /// Position of the body origin (of the first copy of a grid), m.
+    pub position: Vec3,
+    /// Orientation `[x, y, z, w]`; identity if left out.
+    #[serde(default = "identity")]
+    pub rotation: [f32; 4],
+    /// Linear velocity, m/s.
+    #[serde(default)]
+    pub velocity: Vec3,
+    /// Angular velocity, rad/s.
+    #[serde(default)]
+    pub angvel: Vec3,
+    /// How its owner simulates it.
+    #[serde(default)]
+    pub role: Role,
+    /// Continuous collision detection.
+    #[serde(default)]
+    pub ccd: bool,
+    /// Repeat it over a lattice.
+    #[serde(default)]
+    pub grid: Option<Grid>,
+}
+
+fn identity() -> [f32; 4] {
+    [0.0, 0.0, 0.0, 1.0]
+}
+
+impl Entity {
+    /// How many entities this entry makes.
+    pub fn copies(&self) -> u64 {
+        self.grid
+            .map_or(1, |g| g.count.iter().map(|&c| u64::from(c)).product())
+    }
+}
+
+/// Something that happens at a tick.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Event {
+    /// A cluster fires a projectile (a new entity it owns).
+    Projectile {
+        /// When.
+        tick: u64,
+        /// The firing cluster.
+        by: String,
+        /// Where it starts, m.
+        position: Vec3,
+        /// Its velocity, m/s.
+        velocity: Vec3,
+        /// Its radius, m.
+        radius: f32,
+        /// Its mass, kg.
+        mass: f32,
+        /// Continuous collision detection.
+        #[serde(default)]
+        ccd: bool,
+    },
+    /// A cluster pushes everything within `radius` of `center` away from it.
+    Explosion {
+        /// When.
+        tick: u64,
+        /// The cluster where it goes off.
+        by: String,
+        /// Centre, m.
+        center: Vec3,
+        /// Reach, m.
+        radius: f32,
+        /// Impulse on a body at the centre, N·s, falling linearly to zero at the reach.
+        impulse: f32,
+    },
+    /// A cluster casts rays and pushes what they hit.
+    RaycastVolley {
+        /// When.
+        tick: u64,
+        /// The shooting cluster.
+        by: String,
+        /// Where the rays start, m.
+        origin: Vec3,
+        /// Their directions.
+        directions: Vec<Vec3>,
+        /// How far they reach, m.
+        max_distance: f32,
+        /// Impulse given to each body hit, N·s, along the ray.
+        impulse: f32,
+    },
+    /// The owner of an entity hands it to another cluster.
+    Handoff {
+        /// When.
+        tick: u64,
+        /// The entity (by scene name).
+        entity: String,
+        /// The new owner.
+        to: String,
+    },
+}
+
+impl Event {
+    /// When it happens.
+    pub fn tick(&self) -> u64 {
+        match *self {
+            Event::Projectile { tick, .. }
+            | Event::Explosion { tick, .. }
+            | Event::RaycastVolley { tick, .. }
+            | Event::Handoff { tick, .. } => tick,
+        }
+    }
+}
+
+/// Byte offset of the line that sets `key` to the quoted `value`, for error positions.
+fn find(text: &str, key: &str, value: &str) -> usize {
+    let quoted = format!("\"{value}\"");
+    let mut offset = 0;
+    for line in text.split_inclusive('\n') {
+        if line.contains(key) && line.contains(&quoted) {
+            return offset + line.find(&quoted).unwrap_or(0);
+        }
+        offset += line.len();
+    }
+    0
+}
+
+impl Scene {
+    /// Checks what a run relies on; on failure, the byte offset to report and the message.
+    pub(super) fn check(&self, text: &str) -> Result<(), (usize, String)> {
+        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
+        let positive = |x: f32| x.is_finite() && x > 0.0;
+        let cluster_names: Vec<&str> = self.clusters.iter().map(|c| c.name.as_str()).collect();
+        let known_cluster = |key: &str, name: &str| -> Result<(), (usize, String)> {
+            if cluster_names.contains(&name) {
+                Ok(())
+            } else {
+                Err((
+                    find(text, key, name),
+                    format!(
+                        "field `{key}`: no cluster named {name:?} (clusters: {})",
+                        cluster_names.join(", ")
+                    ),
+                ))
+            }
+        };
+        if self.clusters.is_empty() {
+            return Err((0, "a scene needs at least one [[cluster]]".into()));
+        }
+        if !(positive(self.dt) && finite(&self.gravity)) {
+            return Err((0, "field `dt` must be positive and `gravity` finite".into()));
+        }
+        for (i, cluster) in self.clusters.iter().enumerate() {
+            if cluster_names[..i].contains(&cluster.name.as_str()) {
+                return Err((
+                    find(text, "name", &cluster.name),
+                    format!("field `name`: cluster {:?} is defined twice", cluster.name),
+                ));
+            }
+            let r = cluster.region;
+            if !finite(&r.min) || !finite(&r.max) || (0..3).any(|k| r.min[k] > r.max[k]) {
+                return Err((
+                    find(text, "name", &cluster.name),
+                    format!(
+                        "field `region` of cluster {:?}: min must not exceed max",
+                        cluster.name
+                    ),
+                ));
+            }
+        }
+        let mut entity_names: Vec<&str> = Vec::new();
+        for entity in &self.entities {
+            let at = find(text, "name", &entity.name);
+            let bad = |message: String| Err((at, format!("entity {:?}: {message}", entity.name)));
+            if entity_names.contains(&entity.name.as_str()) {
+                return bad("field `name`: defined twice".into());
+            }
+            entity_names.push(&entity.name);
+            known_cluster("owner", &entity.owner)?;
+            if !entity
+                .shape
+                .sizes()
+                .iter()
+                .all(|&s| s.is_finite() && s > 0.0)
+            {
+                return bad("field `shape`: sizes must be positive".into());
+            }
+            if !positive(entity.mass) {
+                return bad("field `mass` must be positive".into());
+            }
+            let vectors = [entity.position, entity.velocity, entity.angvel];
+            if !vectors.iter().all(|v| finite(v)) || !finite(&entity.rotation) {
+                return bad(
+                    "fields `position`, `rotation`, `velocity`, `angvel` must be finite".into(),
+                );
+            }
+            let [x, y, z, w] = entity.rotation;
+            if ((x * x + y * y + z * z + w * w).sqrt() - 1.0).abs() > 1e-3 {
+                return bad("field `rotation` must be a unit quaternion [x, y, z, w]".into());
+            }
+            if let Some(grid) = entity.grid
+                && (grid.count.contains(&0) || !finite(&grid.spacing))
+            {
+                return bad("field `grid`: counts must be at least 1, spacing finite".into());
+            }
+        }
+        for event in &self.events {
+            match event {
+                Event::Projectile {
+                    by,
+                    position,
+                    velocity,
+                    radius,
+                    mass,
+                    ..
+                } => {
+                    known_cluster("by", by)?;
+                    if !(finite(position)
+                        && finite(velocity)
+                        && positive(*radius)
+                        && positive(*mass))
+                    {
+                        return Err((
+                            find(text, "by", by),
+                            "projectile: `position`, `velocity` finite, `radius`, `mass` positive"
+                                .into(),
+                        ));
+                    }
+                }
+                Event::Explosion {
+                    by,
+                    center,
+                    radius,
+                    impulse,
+                    ..
+                } => {
+                    known_cluster("by", by)?;
+                    if !(finite(center) && positive(*radius) && impulse.is_finite()) {
+                        return Err((
+                            find(text, "by", by),
+                            "explosion: `center` finite, `radius` positive, `impulse` finite"
+                                .into(),
+                        ));
+                    }
+                }
+                Event::RaycastVolley {
+                    by,
+                    origin,
+                    directions,
+                    max_distance,
+                    impulse,
+                    ..
+                } => {
+                    known_cluster("by", by)?;
+                    let ok = finite(origin)
+                        && directions
+                            .iter()
+                            .all(|d| finite(d) && d.iter().any(|c| *c != 0.0))
+                        && positive(*max_distance)
+                        && impulse.is_finite();
+                    if !ok {
+                        return Err((
+                            find(text, "by", by),
+                            "raycast_volley: finite `origin`, non-zero `directions`, positive \
+                             `max_distance`, finite `impulse`"
+                                .into(),
+                        ));
+                    }
+                }
+                Event::Handoff { entity, to, .. } => {
+                    known_cluster("to", to)?;
+                    if !entity_names.contains(&entity.as_str()) {
+                        return Err((
+                            find(text, "entity", entity),
+                            format!("field `entity`: no entity named {entity:?}"),
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}

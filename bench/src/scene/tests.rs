@@ -1,0 +1,98 @@
+use std::path::Path;
+
+use super::{Event, Role, load, parse};
+
+fn scene_file(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
+#[test]
+fn shipped_scenes_load() {
+    let crossfire = load(&scene_file("crossfire.toml")).expect("crossfire loads");
+    assert_eq!(crossfire.clusters.len(), 2);
+    assert!(
+        crossfire
+            .events
+            .iter()
+            .any(|e| matches!(e, Event::Handoff { .. }))
+    );
+    assert!(
+        crossfire
+            .events
+            .iter()
+            .any(|e| matches!(e, Event::Explosion { .. }))
+    );
+    assert_eq!(crossfire.entities[0].role, Role::Fixed);
+    let grid = load(&scene_file("grid.toml")).expect("grid loads");
+    assert_eq!(grid.clusters.len(), 4);
+    let bodies: u64 = grid.entities.iter().map(|e| e.copies()).sum();
+    assert_eq!(bodies, 2500, "thousands of entities");
+}
+
+const GOOD: &str = r#"name = "t"
+
+[[cluster]]
+name = "a"
+region = { min = [0, 0, 0], max = [1, 1, 1] }
+
+[[entity]]
+name = "e"
+owner = "a"
+shape = { kind = "ball", radius = 0.5 }
+mass = 1.0
+position = [0, 0, 0]
+"#;
+
+fn error(text: &str) -> String {
+    parse("bad.toml", text).expect_err("rejected").to_string()
+}
+
+#[test]
+fn a_good_scene_parses() {
+    let scene = parse("good.toml", GOOD).expect("valid");
+    assert_eq!(scene.ticks, 600);
+    assert_eq!(scene.entities[0].rotation, [0.0, 0.0, 0.0, 1.0]);
+}
+
+#[test]
+fn errors_name_file_line_and_field() {
+    let wrong_type = GOOD.replace("mass = 1.0", "mass = \"heavy\"");
+    let message = error(&wrong_type);
+    assert!(message.starts_with("bad.toml:11:"), "{message}");
+    assert!(message.contains("mass"), "{message}");
+
+    let missing = GOOD.replace("mass = 1.0\n", "");
+    let message = error(&missing);
+    assert!(message.starts_with("bad.toml:"), "{message}");
+    assert!(message.contains("`mass`"), "{message}");
+
+    let unknown_owner = GOOD.replace("owner = \"a\"", "owner = \"b\"");
+    let message = error(&unknown_owner);
+    assert!(message.starts_with("bad.toml:9:"), "{message}");
+    assert!(
+        message.contains("field `owner`") && message.contains("\"b\""),
+        "{message}"
+    );
+
+    let typo = GOOD.replace("position =", "postion =");
+    let message = error(&typo);
+    assert!(message.contains("postion"), "{message}");
+
+    let bad_shape = GOOD.replace("radius = 0.5", "radius = -1");
+    assert!(error(&bad_shape).contains("`shape`"));
+
+    let bad_region = GOOD.replace("max = [1, 1, 1]", "max = [-1, 1, 1]");
+    assert!(error(&bad_region).contains("`region`"));
+
+    let handoff = format!(
+        "{GOOD}\n[[event]]\ntick = 5\nkind = \"handoff\"\nentity = \"ghost\"\nto = \"a\"\n"
+    );
+    let message = error(&handoff);
+    assert!(
+        message.contains("field `entity`") && message.contains("ghost"),
+        "{message}"
+    );
+    assert!(message.starts_with("bad.toml:17:"), "{message}");
+}
