@@ -138,6 +138,26 @@ fn expand_transport(name: &str) -> String {
     }
 }
 
+/// A progress printer for a run of `total` rows: `[done/total] row` on stderr.
+fn progress(total: usize) -> impl FnMut(&str) {
+    let mut done = 0;
+    move |row| {
+        done += 1;
+        eprintln!("[{done}/{total}] {row}");
+    }
+}
+
+/// Prints measured rows as a table, or as one JSON object per line.
+fn print_rows<R: serde::Serialize>(rows: &[R], json: bool, table: fn(&[R]) -> String) {
+    if json {
+        for row in rows {
+            println!("{}", serde_json::to_string(row).expect("rows serialise"));
+        }
+    } else {
+        print!("{}", table(rows));
+    }
+}
+
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Ping {
@@ -167,25 +187,13 @@ fn main() -> ExitCode {
                 } else {
                     0
                 };
-            let mut done = 0;
             eprintln!(
                 "seam ping: {iterations} timed round trips per row after {warmup} warm-up, one-way = round trip / 2, {} cores",
                 std::thread::available_parallelism().map_or(0, |n| n.get())
             );
-            ping::run(&plan, |row| {
-                done += 1;
-                eprintln!("[{done}/{total}] {row}");
-            })
-            .map(|rows| {
-                if json {
-                    for row in &rows {
-                        println!("{}", serde_json::to_string(row).expect("rows serialise"));
-                    }
-                } else {
-                    print!("{}", ping::table(&rows));
-                }
-            })
-            .map_err(|e| e.to_string())
+            ping::run(&plan, progress(total))
+                .map(|rows| print_rows(&rows, json, ping::table))
+                .map_err(|e| e.to_string())
         }
         Command::Ops {
             transport,
@@ -206,20 +214,7 @@ fn main() -> ExitCode {
             eprintln!(
                 "seam ops: {rounds} timed frames per row after {warmup} warm-up, one frame in flight"
             );
-            let mut done = 0;
-            ops::run(&plan, |row| {
-                done += 1;
-                eprintln!("[{done}/{total}] {row}");
-            })
-            .map(|rows| {
-                if json {
-                    for row in &rows {
-                        println!("{}", serde_json::to_string(row).expect("rows serialise"));
-                    }
-                } else {
-                    print!("{}", ops::table(&rows));
-                }
-            })
+            ops::run(&plan, progress(total)).map(|rows| print_rows(&rows, json, ops::table))
         }
         Command::Scene { files } => files.iter().try_for_each(|file| {
             let scene = seam_bench::scene::load(file).map_err(|e| e.to_string())?;
