@@ -3,7 +3,11 @@
 use hdrhistogram::Histogram;
 use serde::{Deserialize, Serialize};
 
-/// Records latencies in nanoseconds, from 1 ns to 60 s at 3 significant digits.
+/// Records latencies in nanoseconds, from 1 ns to 60 s at 3 significant digits. Serialises as
+/// its non-empty buckets, `[[value, count], …]`, so recorders from several processes can be
+/// merged.
+#[derive(Clone, Serialize, Deserialize)]
+#[serde(from = "Vec<(u64, u64)>", into = "Vec<(u64, u64)>")]
 pub struct LatencyRecorder {
     histogram: Histogram<u64>,
 }
@@ -21,6 +25,24 @@ impl LatencyRecorder {
     /// Adds one sample, clamped into the histogram's range.
     pub fn record(&mut self, nanos: u64) {
         self.histogram.saturating_record(nanos.max(1));
+    }
+
+    /// Adds one sample of any unit, 0 included (tick counts, say).
+    pub fn record_value(&mut self, value: u64) {
+        self.histogram.saturating_record(value);
+    }
+
+    /// Adds everything `other` recorded.
+    pub fn merge(&mut self, other: &LatencyRecorder) {
+        for bucket in other.histogram.iter_recorded() {
+            self.histogram
+                .saturating_record_n(bucket.value_iterated_to(), bucket.count_at_value());
+        }
+    }
+
+    /// Whether nothing was recorded.
+    pub fn is_empty(&self) -> bool {
+        self.histogram.is_empty()
     }
 
     /// Percentiles of what was recorded.
@@ -54,4 +76,45 @@ pub struct LatencySummary {
 /// Nanoseconds as microseconds with two decimals, for tables.
 pub fn micros(nanos: u64) -> String {
     format!("{:.2}", nanos as f64 / 1000.0)
+}
+
+impl From<Vec<(u64, u64)>> for LatencyRecorder {
+    fn from(buckets: Vec<(u64, u64)>) -> Self {
+        let mut recorder = LatencyRecorder::default();
+        for (value, count) in buckets {
+            recorder.histogram.saturating_record_n(value, count);
+        }
+        recorder
+    }
+}
+
+impl From<LatencyRecorder> for Vec<(u64, u64)> {
+    fn from(recorder: LatencyRecorder) -> Self {
+        recorder
+            .histogram
+            .iter_recorded()
+            .map(|b| (b.value_iterated_to(), b.count_at_value()))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn recorders_survive_json_and_merge() {
+        let mut a = LatencyRecorder::default();
+        let mut b = LatencyRecorder::default();
+        for v in 1..=1000 {
+            a.record(v * 1000);
+        }
+        b.record_value(0);
+        let json = serde_json::to_string(&a).expect("serialises");
+        let mut back: LatencyRecorder = serde_json::from_str(&json).expect("deserialises");
+        assert_eq!(back.summary().p50_ns, a.summary().p50_ns);
+        back.merge(&b);
+        assert_eq!(back.summary().samples, 1001);
+        assert!(b.summary().max_ns == 0 && !b.is_empty());
+    }
 }

@@ -1,11 +1,14 @@
 //! seam-bench — the `seam` command line and the criterion benches.
 //!
-//! `seam ping` is here now; pods, scenes, op latency and sweeps join it as the layers above the
-//! transport land.
+//! `seam run` is the main job: a scene's clusters as co-hosted pods, one process each.
 //!
 //! # Layout
 //!
 //! - `src/main.rs` — the `seam` CLI (clap): subcommands and their flags.
+//! - [`run`] — `seam run`: starts one pod per cluster of a scene, shows progress, merges their
+//!   reports.
+//! - [`node`] — `seam node`: one pod, ticking on a schedule and sleeping on its transport.
+//! - [`pod`] — one cluster playing its part of a scene (spawns, events, op stage times).
 //! - [`ping`] — `seam ping`: one-way latency between two processes over any transport, with
 //!   plain iceoryx2 as the floor.
 //! - [`ops`] — `seam ops`: routed-op latency between two processes, stage by stage.
@@ -15,7 +18,10 @@
 //! - `benches/bench_transport.rs` — in-process publish → receive per backend (criterion).
 
 pub mod latency;
+pub mod node;
 pub mod ops;
 pub mod ping;
+pub mod pod;
+pub mod run;
 pub mod scene;
 pub mod wait;

@@ -3,8 +3,10 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use seam_bench::node::{self, NodeArgs, ProxyModeArg};
 use seam_bench::ops::{self, OpsPlan};
 use seam_bench::ping::{self, PingPlan, WaitMode};
+use seam_bench::run::{self, RunPlan};
 
 #[derive(Parser)]
 #[command(
@@ -23,6 +25,43 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Run a scene as co-hosted cluster pods, one process per cluster, and report (the main job).
+    ///
+    /// Starts one `seam node` per cluster of the scene on this host, over shared memory unless
+    /// told otherwise (no server needed), shows progress, and prints per pod: ticks, tick-time
+    /// percentiles and overruns, entities and proxies, ops routed and applied, contacts sent
+    /// and received, hand-offs and drops; and for all pods the routed-op stages (queue,
+    /// transport, apply, whole) in µs and ticks. Ctrl-C stops the pods, which still report.
+    Run {
+        /// The scene file (TOML), e.g. bench/scenes/crossfire.toml.
+        scene: std::path::PathBuf,
+        /// Transport URL for every pod: `shm`, or `redis://host:port` (`redis` alone means
+        /// redis://127.0.0.1:6379).
+        #[arg(long, default_value = "shm")]
+        transport: String,
+        /// Ticks per second; 0 ticks as fast as each pod can.
+        #[arg(long, default_value_t = 60.0)]
+        rate: f64,
+        /// Ticks to run (default: the scene's `ticks`).
+        #[arg(long)]
+        ticks: Option<u64>,
+        /// How neighbour entities are modelled.
+        #[arg(long, value_enum, default_value_t = ProxyModeArg::Fixed)]
+        proxy_mode: ProxyModeArg,
+        /// A replication frame every this many ticks.
+        #[arg(long, default_value_t = 1)]
+        replication_interval: u64,
+        /// Print the report as one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// One cluster pod: runs its part of a scene over a transport (started by `seam run`, or by
+    /// hand on each host).
+    ///
+    /// Ticks on a schedule (60 Hz unless told otherwise), sleeping on the transport's wake-up
+    /// between ticks; stops cleanly on SIGINT or SIGTERM. Writes JSON lines on stdout: progress
+    /// about once a second and a final report. Pods of one run must share `--run-id`.
+    Node(NodeArgs),
     /// Measure one-way latency between two processes (round trip / 2) over each transport.
     ///
     /// Spawns a peer process that echoes every message back, times the round trips and prints
@@ -158,8 +197,66 @@ fn print_rows<R: serde::Serialize>(rows: &[R], json: bool, table: fn(&[R]) -> St
     }
 }
 
+/// `seam run`: this executable starts the pods.
+fn run_scene(mut plan: RunPlan) -> Result<run::RunReport, String> {
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find seam itself: {e}"))?;
+    plan.node_command = vec![exe.into(), "node".into()];
+    let stop = node::stop_flag()?;
+    eprintln!(
+        "seam run: {} on {}, one pod per cluster",
+        plan.scene.display(),
+        seam_transport::redact_url(&plan.transport)
+    );
+    run::run(&plan, &stop, |progress| {
+        let pods: Vec<String> = progress
+            .pods
+            .iter()
+            .flatten()
+            .map(|p| p.to_string())
+            .collect();
+        let pods = if pods.is_empty() {
+            "starting".to_owned()
+        } else {
+            pods.join(" · ")
+        };
+        eprintln!("[{:5.1} s] {pods}", progress.elapsed_s);
+    })
+}
+
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
+        Command::Run {
+            scene,
+            transport,
+            rate,
+            ticks,
+            proxy_mode,
+            replication_interval,
+            json,
+        } => run_scene(RunPlan {
+            scene,
+            transport: expand_transport(&transport),
+            rate,
+            ticks,
+            proxy_mode,
+            replication_interval,
+            run_id: run::fresh_run_id(),
+            node_command: Vec::new(),
+            start_delay: std::time::Duration::from_millis(750),
+        })
+        .map(|report| {
+            if json {
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&report).expect("reports serialise")
+                );
+            } else {
+                print!("{}", run::table(&report));
+            }
+        }),
+        Command::Node(args) => node::stop_flag().and_then(|stop| {
+            node::run_node(&args, &stop, &mut std::io::stdout().lock()).map(|_| ())
+        }),
         Command::Ping {
             transport,
             size,

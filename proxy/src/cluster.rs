@@ -225,6 +225,21 @@ impl Cluster {
         self.run(frames, user)
     }
 
+    /// Waits up to `timeout` for a frame to arrive, sleeping on the transport's wake-up rather
+    /// than spinning, and keeps it (with anything else that has arrived) for the next tick.
+    /// Returns whether anything arrived. Free-running pods call this between ticks, so frames
+    /// are taken off the transport as they come and stamped "received" when they arrive.
+    pub fn wait(&mut self, timeout: Duration) -> Result<bool, ClusterError> {
+        let Some(message) = self.transport.receive_timeout(timeout)? else {
+            return Ok(false);
+        };
+        let received_ns = monotonic_ns();
+        let frame = decode_frame(message.channel, message.payload);
+        self.file(frame, received_ns);
+        self.drain()?;
+        Ok(true)
+    }
+
     /// Moves everything the transport holds into the inbox.
     fn drain(&mut self) -> Result<(), ClusterError> {
         while let Some(message) = self.transport.try_receive()? {

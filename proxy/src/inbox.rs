@@ -73,15 +73,78 @@ impl Inbox {
     }
 
     /// Takes everything (free-running): every events frame, and the newest replication frame of
-    /// each sender, oldest tick first.
+    /// each sender. A hand-off in an older frame the newest one no longer lists rides along in
+    /// the newest (the old owner stops listing an entity right after handing it over, so
+    /// skipping that frame would lose the entity).
     pub(crate) fn take_all(&mut self) -> TickFrames {
         let mut newest: BTreeMap<ClusterId, ReplicationFrame> = BTreeMap::new();
+        // Keys sort by tick first, so each sender's frames come oldest first.
         for ((_, from), frame) in std::mem::take(&mut self.replication) {
-            newest.insert(from, frame);
+            let Some(older) = newest.insert(from, frame) else {
+                continue;
+            };
+            let Some(newer) = newest.get_mut(&from) else {
+                continue;
+            };
+            for state in older.states {
+                let handed = state.cluster_id != older.from;
+                if handed && !newer.states.iter().any(|s| s.id == state.id) {
+                    newer.states.push(state);
+                }
+            }
         }
         TickFrames {
             replication: newest.into_values().collect(),
             events: std::mem::take(&mut self.events).into_values().collect(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use seam_sim::wire::{BodyShape, EntityId, EntityState, Shape};
+
+    use super::*;
+
+    fn state(id: EntityId, owner: ClusterId, x: f32) -> EntityState {
+        EntityState {
+            id,
+            cluster_id: owner,
+            tick: 0,
+            position: [x, 0.0, 0.0],
+            rotation: [0.0, 0.0, 0.0, 1.0],
+            linvel: [0.0; 3],
+            angvel: [0.0; 3],
+            body: BodyShape {
+                shape: Shape::Ball { radius: 0.5 },
+                density: 1.0,
+                ccd: false,
+            },
+        }
+    }
+
+    #[test]
+    fn a_handoff_in_a_skipped_frame_rides_in_the_newest() {
+        let (a, b) = (ClusterId::random(), ClusterId::random());
+        let (kept, handed) = (EntityId::random(), EntityId::random());
+        let mut inbox = Inbox::default();
+        inbox.add_replication(ReplicationFrame {
+            from: a,
+            tick: 7,
+            states: vec![state(kept, a, 1.0), state(handed, b, 2.0)],
+        });
+        inbox.add_replication(ReplicationFrame {
+            from: a,
+            tick: 8,
+            states: vec![state(kept, a, 1.5)],
+        });
+        let frames = inbox.take_all();
+        assert_eq!(frames.replication.len(), 1);
+        let newest = &frames.replication[0];
+        assert_eq!(newest.tick, 8);
+        assert_eq!(newest.states.len(), 2);
+        assert_eq!(newest.states[0].position[0], 1.5, "the newest pose wins");
+        assert_eq!(newest.states[1].id, handed);
+        assert_eq!(newest.states[1].cluster_id, b);
     }
 }

@@ -1,7 +1,7 @@
 //! What a cluster counts.
 
 /// Counters of one cluster since it started.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct ClusterStats {
     /// Ticks run.
     pub ticks: u64,

@@ -1,0 +1,223 @@
+//! `seam node`: one cluster pod running its part of a scene.
+//!
+//! The pod ticks on a fixed schedule (60 Hz unless told otherwise, or as fast as it can with
+//! rate 0). Between ticks it sleeps on its transport's wake-up ([`Pod::wait`]), taking frames
+//! off the transport as they arrive, so an idle pod uses no CPU and "received" stamps mean
+//! arrival. Pods started by `seam run` share a start time on the host's monotonic clock, so
+//! their tick `k` falls at the same moment. SIGINT or SIGTERM ends the run after the current
+//! tick, and the pod still reports.
+//!
+//! Output: JSON lines on stdout, a [`NodeLine::Progress`] four times a second and one
+//! [`NodeLine::Report`] at the end (also written to `--metrics FILE` if given); unless
+//! `--quiet`, a human progress line on stderr too.
+
+mod report;
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use seam_proxy::{ProxyMode, monotonic_ns};
+
+use crate::latency::LatencyRecorder;
+use crate::pod::{Part, Pod, PodSettings};
+pub use report::{NodeLine, NodeProgress, NodeReport, TransportCounts};
+
+/// How neighbour entities are modelled, as a command-line value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProxyModeArg {
+    /// Fixed bodies set to each replicated pose.
+    Fixed,
+    /// Kinematic bodies moving with the velocity that reaches the next replicated pose.
+    Kinematic,
+}
+
+impl From<ProxyModeArg> for ProxyMode {
+    fn from(mode: ProxyModeArg) -> Self {
+        match mode {
+            ProxyModeArg::Fixed => ProxyMode::Fixed,
+            ProxyModeArg::Kinematic => ProxyMode::KinematicVelocityBased,
+        }
+    }
+}
+
+/// `seam node`'s flags.
+#[derive(Debug, Clone, clap::Args)]
+pub struct NodeArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// The scene cluster this pod runs.
+    #[arg(long, required_unless_present = "reference")]
+    pub cluster: Option<String>,
+    /// Run every cluster of the scene in this one world (the single-world reference).
+    #[arg(long, conflicts_with = "cluster")]
+    pub reference: bool,
+    /// Transport URL: `shm`, `local` or `redis://host:port`.
+    #[arg(long, default_value = "shm")]
+    pub transport: String,
+    /// Ticks per second; 0 ticks as fast as the pod can.
+    #[arg(long, default_value_t = 60.0)]
+    pub rate: f64,
+    /// Ticks to run (default: the scene's `ticks`).
+    #[arg(long)]
+    pub ticks: Option<u64>,
+    /// Salts every cluster and entity id: pods of one run must share it, concurrent runs must
+    /// not.
+    #[arg(long, default_value = "seam")]
+    pub run_id: String,
+    /// How neighbour entities are modelled.
+    #[arg(long, value_enum, default_value_t = ProxyModeArg::Fixed)]
+    pub proxy_mode: ProxyModeArg,
+    /// A replication frame every this many ticks.
+    #[arg(long, default_value_t = 1)]
+    pub replication_interval: u64,
+    /// Tick 0 at this CLOCK_MONOTONIC time, ns (set by `seam run` so pods tick in phase).
+    #[arg(long, hide = true)]
+    pub start_at: Option<u64>,
+    /// Also write the final report (JSON) to this file.
+    #[arg(long)]
+    pub metrics: Option<PathBuf>,
+    /// No progress on stderr.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// How often a pod reports progress.
+const PROGRESS_EVERY: Duration = Duration::from_millis(250);
+
+/// Set when SIGINT or SIGTERM arrives.
+pub fn stop_flag() -> Result<Arc<AtomicBool>, String> {
+    let flag = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&flag))
+            .map_err(|e| format!("cannot handle signal {signal}: {e}"))?;
+    }
+    Ok(flag)
+}
+
+fn emit(out: &mut impl Write, line: &NodeLine) -> Result<(), String> {
+    let text = serde_json::to_string(line).map_err(|e| e.to_string())?;
+    writeln!(out, "{text}")
+        .and_then(|()| out.flush())
+        .map_err(|e| format!("cannot write to stdout: {e}"))
+}
+
+/// Runs one pod to the end of its ticks or until `stop` is set; writes JSON lines to `out`.
+pub fn run_node(
+    args: &NodeArgs,
+    stop: &AtomicBool,
+    out: &mut impl Write,
+) -> Result<NodeReport, String> {
+    let scene = crate::scene::load(&args.scene).map_err(|e| e.to_string())?;
+    if !(args.rate.is_finite() && args.rate >= 0.0) {
+        return Err(format!("--rate must be 0 or positive, not {}", args.rate));
+    }
+    let part = match (&args.cluster, args.reference) {
+        (Some(name), false) => Part::Cluster(name.clone()),
+        _ => Part::Reference,
+    };
+    let settings = PodSettings {
+        transport: args.transport.clone(),
+        run_id: args.run_id.clone(),
+        proxy_mode: args.proxy_mode.into(),
+        replication_interval: args.replication_interval,
+    };
+    let shown = seam_transport::redact_url(&args.transport);
+    let mut pod = Pod::new(&scene, &part, &settings).map_err(|e| format!("{shown}: {e}"))?;
+    let ticks = args.ticks.unwrap_or(scene.ticks);
+    let period_ns = (args.rate > 0.0).then(|| (1e9 / args.rate) as u64);
+
+    // Tick k is due at anchor + k · period.
+    let now = monotonic_ns();
+    let anchor = args.start_at.map_or(now, |at| at.max(now));
+    let start_late_ns = args.start_at.map_or(0, |at| now.saturating_sub(at));
+    let fail = |e: seam_proxy::ClusterError| format!("{}: {shown}: {e}", pod_name(&part));
+    let started = Instant::now();
+    let mut tick_time = LatencyRecorder::default();
+    let (mut overruns, mut max_lag_ns, mut proxies_peak) = (0u64, 0u64, 0usize);
+    let mut last_progress = Instant::now();
+    let mut done = 0;
+    while done < ticks && !stop.load(Ordering::Relaxed) {
+        let due = anchor + period_ns.map_or(0, |p| done * p);
+        loop {
+            let now = monotonic_ns();
+            if now >= due || stop.load(Ordering::Relaxed) {
+                max_lag_ns = max_lag_ns.max(now.saturating_sub(due));
+                break;
+            }
+            pod.wait(Duration::from_nanos(due - now)).map_err(fail)?;
+        }
+        let begun = Instant::now();
+        pod.tick().map_err(fail)?;
+        let took = begun.elapsed().as_nanos() as u64;
+        tick_time.record(took);
+        if period_ns.is_some_and(|p| took > p) {
+            overruns += 1;
+        }
+        done += 1;
+        if last_progress.elapsed() >= PROGRESS_EVERY || done == ticks {
+            last_progress = Instant::now();
+            let (owned, proxies) = pod.population();
+            proxies_peak = proxies_peak.max(proxies);
+            let progress = NodeProgress {
+                cluster: pod.name().to_owned(),
+                tick: done,
+                ticks,
+                tick_p99_ns: tick_time.summary().p99_ns,
+                overruns,
+                entities_owned: owned,
+                proxies,
+            };
+            if !args.quiet {
+                eprintln!("{progress}");
+            }
+            emit(out, &NodeLine::Progress(progress))?;
+        }
+    }
+    let (entities_owned, proxies) = pod.population();
+    let transport = pod.cluster().transport_stats();
+    let report = NodeReport {
+        cluster: pod.name().to_owned(),
+        cluster_id: pod.cluster().id().to_string(),
+        transport: shown,
+        rate_hz: args.rate,
+        ticks: done,
+        ticks_planned: ticks,
+        stopped_by_signal: done < ticks,
+        wall_s: started.elapsed().as_secs_f64(),
+        start_late_ns,
+        tick_time,
+        overruns,
+        max_lag_ns,
+        entities_at_start: pod.owned_at_start(),
+        entities_owned,
+        proxies,
+        proxies_peak: proxies_peak.max(proxies),
+        cluster_stats: pod.cluster().stats(),
+        transport_stats: TransportCounts {
+            published: transport.published,
+            received: transport.received,
+            overflow_drops: transport.overflow_drops,
+            malformed_drops: transport.malformed_drops,
+        },
+        events: pod.event_counts(),
+        ops: pod.op_stages().clone(),
+    };
+    if let Some(path) = &args.metrics {
+        let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        std::fs::write(path, text)
+            .map_err(|e| format!("cannot write metrics to {}: {e}", path.display()))?;
+    }
+    emit(out, &NodeLine::Report(Box::new(report.clone())))?;
+    Ok(report)
+}
+
+fn pod_name(part: &Part) -> &str {
+    match part {
+        Part::Cluster(name) => name,
+        Part::Reference => "reference",
+    }
+}

@@ -1,0 +1,112 @@
+//! What a pod reports: progress lines and its final report.
+
+use std::fmt;
+
+use seam_proxy::ClusterStats;
+use serde::{Deserialize, Serialize};
+
+use crate::latency::{LatencyRecorder, micros};
+use crate::pod::{EventCounts, OpStages};
+
+/// One JSON line a pod writes on stdout.
+#[derive(Clone, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NodeLine {
+    /// Four times a second.
+    Progress(NodeProgress),
+    /// Once, at the end.
+    Report(Box<NodeReport>),
+}
+
+/// Where a pod is.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct NodeProgress {
+    /// Scene cluster.
+    pub cluster: String,
+    /// Ticks done.
+    pub tick: u64,
+    /// Ticks planned.
+    pub ticks: u64,
+    /// p99 of tick time so far, ns.
+    pub tick_p99_ns: u64,
+    /// Ticks that took longer than the tick period.
+    pub overruns: u64,
+    /// Entities owned now.
+    pub entities_owned: usize,
+    /// Proxies now.
+    pub proxies: usize,
+}
+
+impl fmt::Display for NodeProgress {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} {}/{} tick p99 {} ms, {} overruns, {} owned, {} proxies",
+            self.cluster,
+            self.tick,
+            self.ticks,
+            micros(self.tick_p99_ns / 1000),
+            self.overruns,
+            self.entities_owned,
+            self.proxies
+        )
+    }
+}
+
+/// A transport's counters.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
+pub struct TransportCounts {
+    /// Messages published.
+    pub published: u64,
+    /// Messages received.
+    pub received: u64,
+    /// Messages lost to a full receive buffer.
+    pub overflow_drops: u64,
+    /// Foreign or corrupted messages skipped.
+    pub malformed_drops: u64,
+}
+
+/// Everything one pod measured.
+#[derive(Clone, Serialize, Deserialize)]
+pub struct NodeReport {
+    /// Scene cluster (`reference` for a reference pod).
+    pub cluster: String,
+    /// Its id in this run.
+    pub cluster_id: String,
+    /// Transport URL, password hidden.
+    pub transport: String,
+    /// Ticks per second asked for (0: as fast as possible).
+    pub rate_hz: f64,
+    /// Ticks run.
+    pub ticks: u64,
+    /// Ticks planned.
+    pub ticks_planned: u64,
+    /// Stopped by SIGINT or SIGTERM before the planned ticks.
+    pub stopped_by_signal: bool,
+    /// Seconds from the first tick's schedule to the end.
+    pub wall_s: f64,
+    /// How late the pod was for the shared start time, ns.
+    pub start_late_ns: u64,
+    /// Time each tick took, ns.
+    pub tick_time: LatencyRecorder,
+    /// Ticks that took longer than the tick period.
+    pub overruns: u64,
+    /// Largest delay of a tick's start behind its schedule, ns.
+    pub max_lag_ns: u64,
+    /// Entities spawned at the start.
+    pub entities_at_start: usize,
+    /// Entities owned at the end.
+    pub entities_owned: usize,
+    /// Proxies at the end.
+    pub proxies: usize,
+    /// Most proxies seen at a progress point.
+    pub proxies_peak: usize,
+    /// The cluster's counters.
+    pub cluster_stats: ClusterStats,
+    /// The transport's counters.
+    pub transport_stats: TransportCounts,
+    /// What the scripted events did.
+    pub events: EventCounts,
+    /// Stage times of the routed ops this pod applied.
+    pub ops: OpStages,
+}

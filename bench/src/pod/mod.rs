@@ -1,0 +1,398 @@
+//! A pod: one cluster playing its part of a scene, or one world playing all of it.
+//!
+//! [`Pod::new`] builds the cluster of one scene cluster (its region, spread and neighbours —
+//! the clusters whose regions, grown by both spreads, touch its own), spawns the entities it
+//! owns, and on each [`Pod::tick`] fires the scene's events of that tick that are its to fire:
+//!
+//! - a projectile is spawned, owned by the firing cluster, before the tick;
+//! - a hand-off is started by whichever pod owns the entity at that tick;
+//! - an explosion and a raycast volley run as user code in the tick, so their pushes on
+//!   entities another cluster owns are routed to that owner like any write.
+//!
+//! [`Part::Reference`] plays every cluster in one world (no neighbours, no hand-offs needed):
+//! the single-world run that split runs are compared against.
+//!
+//! Ids come from [`SceneIds`], so separately started pods agree on them.
+
+mod events;
+mod ids;
+mod stages;
+
+use std::collections::HashMap;
+use std::time::Duration;
+
+use seam_proxy::{Cluster, ClusterConfig, ClusterError, ProxyMode, Region};
+use seam_sim::BodyRole;
+use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+
+use crate::scene::{self, Event, Scene, SceneShape};
+pub use events::EventCounts;
+pub use ids::SceneIds;
+pub use stages::{OpStages, OpStagesSummary, TickDelaySummary};
+
+/// Which part of a scene a pod plays.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Part {
+    /// The scene cluster of this name.
+    Cluster(String),
+    /// Every cluster, in one world.
+    Reference,
+}
+
+/// How a pod runs, besides its scene and part.
+#[derive(Debug, Clone)]
+pub struct PodSettings {
+    /// Transport URL.
+    pub transport: String,
+    /// Salts every id, so concurrent runs of one scene do not meet (see [`SceneIds`]).
+    pub run_id: String,
+    /// How neighbour entities are modelled.
+    pub proxy_mode: ProxyMode,
+    /// A replication frame every this many ticks.
+    pub replication_interval: u64,
+}
+
+/// Why a pod could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum PodError {
+    /// The scene has no cluster of that name.
+    #[error("scene {scene:?} has no cluster named {name:?} (clusters: {known})")]
+    UnknownCluster {
+        /// The scene.
+        scene: String,
+        /// The name asked for.
+        name: String,
+        /// The names it has.
+        known: String,
+    },
+    /// The cluster could not start (transport, spawn).
+    #[error(transparent)]
+    Cluster(#[from] ClusterError),
+}
+
+/// One cluster playing its part of a scene.
+pub struct Pod {
+    cluster: Cluster,
+    name: String,
+    /// Scene clusters by name.
+    clusters: HashMap<String, ClusterId>,
+    /// Scene entities by name (every copy of a grid entry).
+    entities: HashMap<String, Vec<EntityId>>,
+    /// The scene's events with their index, in tick order.
+    events: Vec<(usize, Event)>,
+    next_event: usize,
+    /// Which scene clusters this pod plays.
+    plays: Vec<String>,
+    /// Whether it plays all of them in one world.
+    reference: bool,
+    ids: SceneIds,
+    counts: EventCounts,
+    stages: OpStages,
+    owned_at_start: usize,
+}
+
+/// Whether two boxes, each grown by its margin, touch or overlap.
+fn touch(a: &scene::Region, a_margin: f32, b: &scene::Region, b_margin: f32) -> bool {
+    let margin = a_margin + b_margin;
+    (0..3).all(|k| a.min[k] <= b.max[k] + margin && b.min[k] <= a.max[k] + margin)
+}
+
+/// The wire shape of a scene shape.
+pub fn wire_shape(shape: &SceneShape) -> Shape {
+    match *shape {
+        SceneShape::Ball { radius } => Shape::Ball { radius },
+        SceneShape::Cuboid { half_extents } => Shape::Cuboid { half_extents },
+        SceneShape::Capsule {
+            half_height,
+            radius,
+        } => Shape::Capsule {
+            half_height,
+            radius,
+        },
+    }
+}
+
+/// The body role of a scene role.
+fn body_role(role: scene::Role) -> BodyRole {
+    match role {
+        scene::Role::Dynamic => BodyRole::Dynamic,
+        scene::Role::Fixed => BodyRole::Fixed,
+        scene::Role::Kinematic => BodyRole::KinematicVelocityBased,
+    }
+}
+
+impl Pod {
+    /// Starts `part` of `scene`: opens the transport, subscribes to the neighbours and spawns
+    /// the entities it owns.
+    pub fn new(scene: &Scene, part: &Part, settings: &PodSettings) -> Result<Self, PodError> {
+        let ids = SceneIds::new(&settings.run_id, &scene.name);
+        let clusters: HashMap<String, ClusterId> = scene
+            .clusters
+            .iter()
+            .map(|c| (c.name.clone(), ids.cluster(&c.name)))
+            .collect();
+        let (name, plays, cluster_id, neighbours, region, spread) = match part {
+            Part::Reference => (
+                "reference".to_owned(),
+                scene.clusters.iter().map(|c| c.name.clone()).collect(),
+                ids.cluster("\u{0}reference"),
+                Vec::new(),
+                Region::EVERYWHERE,
+                0.0,
+            ),
+            Part::Cluster(name) => {
+                let me = scene
+                    .clusters
+                    .iter()
+                    .find(|c| &c.name == name)
+                    .ok_or_else(|| PodError::UnknownCluster {
+                        scene: scene.name.clone(),
+                        name: name.clone(),
+                        known: scene
+                            .clusters
+                            .iter()
+                            .map(|c| c.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    })?;
+                let neighbours = scene
+                    .clusters
+                    .iter()
+                    .filter(|c| c.name != me.name)
+                    .filter(|c| touch(&me.region, me.spread, &c.region, c.spread))
+                    .map(|c| clusters[&c.name])
+                    .collect();
+                (
+                    name.clone(),
+                    vec![name.clone()],
+                    clusters[name],
+                    neighbours,
+                    Region {
+                        min: me.region.min,
+                        max: me.region.max,
+                    },
+                    me.spread,
+                )
+            }
+        };
+        let mut config = ClusterConfig::new(cluster_id, neighbours, &settings.transport);
+        config.region = region;
+        config.spread = spread;
+        config.proxy_mode = settings.proxy_mode;
+        config.replication_interval = settings.replication_interval.max(1);
+        config.dt = scene.dt;
+        config.gravity = scene.gravity;
+        let mut cluster = Cluster::new(config)?;
+
+        let mut entities: HashMap<String, Vec<EntityId>> = HashMap::new();
+        let mut owned_at_start = 0;
+        for entity in &scene.entities {
+            let body = BodyShape {
+                shape: wire_shape(&entity.shape),
+                density: entity.mass / entity.shape.volume(),
+                ccd: entity.ccd,
+            };
+            let grid = entity.grid.unwrap_or(scene::Grid {
+                count: [1, 1, 1],
+                spacing: [0.0; 3],
+            });
+            let copies = entities.entry(entity.name.clone()).or_default();
+            let mut index = 0;
+            for i in 0..grid.count[0] {
+                for j in 0..grid.count[1] {
+                    for k in 0..grid.count[2] {
+                        let id = ids.entity(&entity.name, index);
+                        index += 1;
+                        copies.push(id);
+                        if !plays.contains(&entity.owner) {
+                            continue;
+                        }
+                        let offset = [i, j, k].map(|n| n as f32);
+                        let state = EntityState {
+                            id,
+                            cluster_id,
+                            tick: 0,
+                            position: [0, 1, 2]
+                                .map(|a| entity.position[a] + offset[a] * grid.spacing[a]),
+                            rotation: entity.rotation,
+                            linvel: entity.velocity,
+                            angvel: entity.angvel,
+                            body,
+                        };
+                        cluster.spawn_owned(&state, body_role(entity.role))?;
+                        owned_at_start += 1;
+                    }
+                }
+            }
+        }
+        let mut events: Vec<(usize, Event)> = scene.events.iter().cloned().enumerate().collect();
+        events.sort_by_key(|(index, event)| (event.tick(), *index));
+        Ok(Self {
+            cluster,
+            name,
+            clusters,
+            entities,
+            events,
+            next_event: 0,
+            plays,
+            reference: *part == Part::Reference,
+            ids,
+            counts: EventCounts::default(),
+            stages: OpStages::default(),
+            owned_at_start,
+        })
+    }
+
+    /// The scene cluster this pod plays (`reference` for a reference pod).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The cluster, to read.
+    pub fn cluster(&self) -> &Cluster {
+        &self.cluster
+    }
+
+    /// The id of scene entity `name` (its first copy, for a grid entry).
+    pub fn entity_id(&self, name: &str) -> Option<EntityId> {
+        self.entities.get(name).and_then(|ids| ids.first().copied())
+    }
+
+    /// The id of the scene cluster `name`.
+    pub fn cluster_id(&self, name: &str) -> Option<ClusterId> {
+        self.clusters.get(name).copied()
+    }
+
+    /// Entities this pod spawned at the start.
+    pub fn owned_at_start(&self) -> usize {
+        self.owned_at_start
+    }
+
+    /// What the pod's events did so far.
+    pub fn event_counts(&self) -> EventCounts {
+        self.counts
+    }
+
+    /// Stage times of the routed ops this pod applied so far.
+    pub fn op_stages(&self) -> &OpStages {
+        &self.stages
+    }
+
+    /// Entities owned here and proxies of other clusters' entities, now.
+    pub fn population(&self) -> (usize, usize) {
+        let me = self.cluster.id();
+        let owned = self
+            .cluster
+            .sim()
+            .entities()
+            .filter(|(_, info)| info.cluster_id == me)
+            .count();
+        (owned, self.cluster.sim().len() - owned)
+    }
+
+    /// Waits up to `timeout` for frames between ticks (see [`Cluster::wait`]).
+    pub fn wait(&mut self, timeout: Duration) -> Result<bool, ClusterError> {
+        self.cluster.wait(timeout)
+    }
+
+    /// One free-running tick with this tick's events.
+    pub fn tick(&mut self) -> Result<(), ClusterError> {
+        let actions = self.before_tick();
+        let counts = &mut self.counts;
+        self.cluster
+            .tick(|context, physics| events::run(&actions, context, physics, counts))?;
+        self.after_tick();
+        Ok(())
+    }
+
+    /// One lock-step tick with this tick's events (see [`Cluster::tick_lockstep`]).
+    pub fn tick_lockstep(&mut self, timeout: Duration) -> Result<(), ClusterError> {
+        let actions = self.before_tick();
+        let counts = &mut self.counts;
+        self.cluster.tick_lockstep(timeout, |context, physics| {
+            events::run(&actions, context, physics, counts)
+        })?;
+        self.after_tick();
+        Ok(())
+    }
+
+    /// Fires this tick's spawns and hand-offs; returns the events that run as user code.
+    fn before_tick(&mut self) -> Vec<Event> {
+        let tick = self.cluster.sim().tick();
+        let mut actions = Vec::new();
+        while let Some((index, event)) = self.events.get(self.next_event) {
+            if event.tick() > tick {
+                break;
+            }
+            self.next_event += 1;
+            if event.tick() < tick {
+                continue;
+            }
+            match event {
+                Event::Projectile {
+                    by,
+                    position,
+                    velocity,
+                    radius,
+                    mass,
+                    ccd,
+                    ..
+                } if self.plays.contains(by) => {
+                    let shape = SceneShape::Ball { radius: *radius };
+                    let state = EntityState {
+                        id: self.ids.event_entity(*index),
+                        cluster_id: self.cluster.id(),
+                        tick,
+                        position: *position,
+                        rotation: [0.0, 0.0, 0.0, 1.0],
+                        linvel: *velocity,
+                        angvel: [0.0; 3],
+                        body: BodyShape {
+                            shape: wire_shape(&shape),
+                            density: mass / shape.volume(),
+                            ccd: *ccd,
+                        },
+                    };
+                    match self.cluster.spawn_owned(&state, BodyRole::Dynamic) {
+                        Ok(()) => self.counts.projectiles += 1,
+                        Err(_) => self.counts.refused += 1,
+                    }
+                }
+                Event::Handoff { entity, to, .. } if !self.reference => {
+                    // In a reference world every cluster is this one: nothing to hand over.
+                    let (Some(&to), Some(copies)) =
+                        (self.clusters.get(to), self.entities.get(entity))
+                    else {
+                        self.counts.refused += 1;
+                        continue;
+                    };
+                    let me = self.cluster.id();
+                    for &id in copies {
+                        let owner = self.cluster.sim().info(id).map(|i| i.cluster_id);
+                        if owner != Some(me) || to == me {
+                            // Not this pod's to hand over.
+                            continue;
+                        }
+                        match self.cluster.transfer_authority(id, to) {
+                            Ok(()) => self.counts.handoffs += 1,
+                            Err(_) => self.counts.refused += 1,
+                        }
+                    }
+                }
+                Event::Explosion { by, .. } | Event::RaycastVolley { by, .. }
+                    if self.plays.contains(by) =>
+                {
+                    actions.push(event.clone());
+                }
+                _ => {}
+            }
+        }
+        actions
+    }
+
+    fn after_tick(&mut self) {
+        for timing in self.cluster.take_op_timings() {
+            self.stages.record(&timing);
+        }
+    }
+}

@@ -1,0 +1,219 @@
+//! `seam run`: the main job — one `seam node` process per cluster of a scene on this host,
+//! progress while they run, and one report when they are done.
+//!
+//! Every pod gets the same run id (so they agree on ids and no other run hears them) and the
+//! same start time on the host's monotonic clock, a moment after launch, so tick `k` of every
+//! pod falls together. Each pod prints JSON lines ([`NodeLine`]); this side reads them, shows
+//! progress, and merges the final reports: per pod its ticks, tick-time percentiles and
+//! overruns, entities and proxies, ops, contacts, hand-offs and drops; for all pods together the
+//! routed-op stages. SIGINT or SIGTERM is passed on to the pods, which stop after their current
+//! tick and still report.
+
+mod report;
+
+use std::ffi::OsString;
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use seam_proxy::monotonic_ns;
+
+use crate::node::{NodeLine, NodeProgress, NodeReport, ProxyModeArg};
+pub use report::{PodSummary, RunReport, table};
+
+/// What `seam run` runs.
+pub struct RunPlan {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// Transport URL for every pod.
+    pub transport: String,
+    /// Ticks per second (0: as fast as possible).
+    pub rate: f64,
+    /// Ticks (default: the scene's).
+    pub ticks: Option<u64>,
+    /// How neighbour entities are modelled.
+    pub proxy_mode: ProxyModeArg,
+    /// A replication frame every this many ticks.
+    pub replication_interval: u64,
+    /// Shared by the pods of this run.
+    pub run_id: String,
+    /// The command that starts a pod, before its flags: `[seam, "node"]`.
+    pub node_command: Vec<OsString>,
+    /// How long after launch tick 0 is due (time for pods to start and open the transport).
+    pub start_delay: Duration,
+}
+
+/// Where the run is, for progress output.
+pub struct RunProgress<'a> {
+    /// Seconds since launch.
+    pub elapsed_s: f64,
+    /// The latest progress of each pod that has sent one.
+    pub pods: &'a [Option<NodeProgress>],
+}
+
+/// A run id no other run on this host has now.
+pub fn fresh_run_id() -> String {
+    format!("{}-{}", std::process::id(), monotonic_ns())
+}
+
+/// Kills the pods still running when dropped (an error path must not leave them behind).
+struct Pods(Vec<(String, Child)>);
+
+impl Drop for Pods {
+    fn drop(&mut self) {
+        for (_, child) in &mut self.0 {
+            if let Ok(None) = child.try_wait() {
+                let _ = child.kill();
+                let _ = child.wait();
+            }
+        }
+    }
+}
+
+impl Pods {
+    fn signal_all(&mut self, signal: rustix::process::Signal) {
+        for (_, child) in &mut self.0 {
+            if let Ok(None) = child.try_wait()
+                && let Some(pid) = rustix::process::Pid::from_raw(child.id() as i32)
+            {
+                let _ = rustix::process::kill_process(pid, signal);
+            }
+        }
+    }
+}
+
+/// Starts the pods, waits for them while calling `progress` about once a second, and merges
+/// their reports. `stop` (set by a signal) ends the run early.
+pub fn run(
+    plan: &RunPlan,
+    stop: &AtomicBool,
+    mut progress: impl FnMut(&RunProgress<'_>),
+) -> Result<RunReport, String> {
+    let scene = crate::scene::load(&plan.scene).map_err(|e| e.to_string())?;
+    let ticks = plan.ticks.unwrap_or(scene.ticks);
+    let (program, leading) = plan
+        .node_command
+        .split_first()
+        .ok_or("no command to start a pod")?;
+    let start_at = monotonic_ns() + plan.start_delay.as_nanos() as u64;
+    let launched = Instant::now();
+    let (lines, incoming) = mpsc::channel::<(usize, Result<NodeLine, String>)>();
+    let mut pods = Pods(Vec::new());
+    for (index, cluster) in scene.clusters.iter().enumerate() {
+        let mut command = Command::new(program);
+        command
+            .args(leading)
+            .arg(&plan.scene)
+            .args(["--cluster", &cluster.name])
+            .args(["--transport", &plan.transport])
+            .args(["--rate", &plan.rate.to_string()])
+            .args(["--ticks", &ticks.to_string()])
+            .args(["--run-id", &plan.run_id])
+            .args(["--proxy-mode", proxy_mode_name(plan.proxy_mode)])
+            .args([
+                "--replication-interval",
+                &plan.replication_interval.to_string(),
+            ])
+            .args(["--start-at", &start_at.to_string(), "--quiet"])
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit());
+        let mut child = command
+            .spawn()
+            .map_err(|e| format!("cannot start the pod of {:?}: {e}", cluster.name))?;
+        let stdout = child
+            .stdout
+            .take()
+            .ok_or_else(|| format!("pod {:?}: no stdout", cluster.name))?;
+        let lines = lines.clone();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines() {
+                let parsed = line.map_err(|e| e.to_string()).and_then(|text| {
+                    serde_json::from_str::<NodeLine>(&text)
+                        .map_err(|e| format!("unreadable line {text:?}: {e}"))
+                });
+                if lines.send((index, parsed)).is_err() {
+                    break;
+                }
+            }
+        });
+        pods.0.push((cluster.name.clone(), child));
+    }
+    drop(lines);
+
+    // Generous: the planned run, plus start-up, plus ticks that may run slower than planned.
+    let planned = if plan.rate > 0.0 {
+        ticks as f64 / plan.rate
+    } else {
+        0.0
+    };
+    let deadline = launched
+        + plan.start_delay
+        + Duration::from_secs_f64(planned * 3.0)
+        + Duration::from_secs(60);
+    let mut latest: Vec<Option<NodeProgress>> = vec![None; pods.0.len()];
+    let mut reports: Vec<Option<NodeReport>> = vec![None; pods.0.len()];
+    let mut problems: Vec<String> = Vec::new();
+    let mut last_shown = Instant::now();
+    let mut signalled = false;
+    loop {
+        match incoming.recv_timeout(Duration::from_millis(100)) {
+            Ok((index, Ok(NodeLine::Progress(p)))) => latest[index] = Some(p),
+            Ok((index, Ok(NodeLine::Report(r)))) => reports[index] = Some(*r),
+            Ok((index, Err(e))) => problems.push(format!("pod {:?}: {e}", pods.0[index].0)),
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+        }
+        if last_shown.elapsed() >= Duration::from_secs(1) {
+            last_shown = Instant::now();
+            progress(&RunProgress {
+                elapsed_s: launched.elapsed().as_secs_f64(),
+                pods: &latest,
+            });
+        }
+        if !signalled && (stop.load(Ordering::Relaxed) || Instant::now() > deadline) {
+            if !stop.load(Ordering::Relaxed) {
+                problems.push(format!(
+                    "the pods were still running after {:.0} s: stopped",
+                    launched.elapsed().as_secs_f64()
+                ));
+            }
+            pods.signal_all(rustix::process::Signal::TERM);
+            signalled = true;
+        }
+    }
+    for (name, child) in &mut pods.0 {
+        let status = child.wait().map_err(|e| format!("pod {name:?}: {e}"))?;
+        if !status.success() {
+            problems.push(format!("pod {name:?} exited with {status}"));
+        }
+    }
+    let wall_s = launched.elapsed().as_secs_f64();
+    let mut complete = Vec::new();
+    for ((name, _), report) in pods.0.iter().zip(reports) {
+        match report {
+            Some(report) => complete.push(report),
+            None => problems.push(format!("pod {name:?} sent no report")),
+        }
+    }
+    if !problems.is_empty() {
+        return Err(problems.join("\n"));
+    }
+    Ok(RunReport::new(
+        &scene.name,
+        seam_transport::redact_url(&plan.transport),
+        plan,
+        wall_s,
+        &complete,
+    ))
+}
+
+fn proxy_mode_name(mode: ProxyModeArg) -> &'static str {
+    match mode {
+        ProxyModeArg::Fixed => "fixed",
+        ProxyModeArg::Kinematic => "kinematic",
+    }
+}

@@ -1,0 +1,281 @@
+//! The report of a run: one summary per pod, totals, and the routed-op stages of all pods.
+
+use seam_proxy::ClusterStats;
+use serde::Serialize;
+
+use super::RunPlan;
+use crate::latency::{LatencySummary, micros};
+use crate::node::{NodeReport, ProxyModeArg, TransportCounts};
+use crate::pod::{EventCounts, OpStages, OpStagesSummary};
+
+/// One pod's figures.
+#[derive(Debug, Clone, Serialize)]
+pub struct PodSummary {
+    /// Scene cluster.
+    pub cluster: String,
+    /// Ticks run.
+    pub ticks: u64,
+    /// Time each tick took, ns.
+    pub tick_time: LatencySummary,
+    /// Ticks longer than the tick period.
+    pub overruns: u64,
+    /// Largest delay of a tick's start behind schedule, ns.
+    pub max_lag_ns: u64,
+    /// How late the pod was for the shared start, ns.
+    pub start_late_ns: u64,
+    /// Entities spawned at the start.
+    pub entities_at_start: usize,
+    /// Entities owned at the end.
+    pub entities_owned: usize,
+    /// Proxies at the end.
+    pub proxies: usize,
+    /// Most proxies seen.
+    pub proxies_peak: usize,
+    /// The cluster's counters.
+    pub cluster_stats: ClusterStats,
+    /// The transport's counters.
+    pub transport_stats: TransportCounts,
+    /// What the scripted events did.
+    pub events: EventCounts,
+    /// Routed ops this pod applied.
+    pub ops: OpStagesSummary,
+}
+
+/// Sums over all pods.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Totals {
+    /// Entities spawned at the start plus projectiles fired.
+    pub entities_expected: usize,
+    /// Entities owned at the end.
+    pub entities_owned: usize,
+    /// Writes routed to another pod.
+    pub ops_routed: u64,
+    /// Routed writes applied by their owner.
+    pub ops_applied: u64,
+    /// Routed writes dropped (target not owned by the receiver, or invalid).
+    pub ops_dropped: u64,
+    /// Contacts with proxies reported to their owners.
+    pub contacts_sent: u64,
+    /// Contacts received from neighbours.
+    pub contacts_received: u64,
+    /// Hand-offs sent.
+    pub handoffs_out: u64,
+    /// Hand-offs taken.
+    pub handoffs_in: u64,
+    /// Messages lost to full receive buffers.
+    pub overflow_drops: u64,
+    /// Foreign or corrupted messages, and frames that did not decode.
+    pub malformed: u64,
+    /// Replicated states ignored.
+    pub states_rejected: u64,
+    /// Tick overruns.
+    pub overruns: u64,
+}
+
+/// Everything `seam run` prints.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunReport {
+    /// Scene name.
+    pub scene: String,
+    /// Transport URL, password hidden.
+    pub transport: String,
+    /// Ticks per second (0: as fast as possible).
+    pub rate_hz: f64,
+    /// How neighbour entities were modelled.
+    pub proxy_mode: ProxyModeArg,
+    /// A replication frame every this many ticks.
+    pub replication_interval: u64,
+    /// Seconds from launch to the last pod's exit.
+    pub wall_s: f64,
+    /// One entry per pod.
+    pub pods: Vec<PodSummary>,
+    /// Sums over the pods.
+    pub totals: Totals,
+    /// Stages of every routed op applied in the run.
+    pub ops: OpStagesSummary,
+}
+
+impl RunReport {
+    /// Merges the pods' reports.
+    pub(super) fn new(
+        scene: &str,
+        transport: String,
+        plan: &RunPlan,
+        wall_s: f64,
+        reports: &[NodeReport],
+    ) -> Self {
+        let mut all_ops = OpStages::default();
+        let mut totals = Totals::default();
+        let mut pods = Vec::new();
+        for r in reports {
+            all_ops.merge(&r.ops);
+            let s = &r.cluster_stats;
+            totals.entities_expected += r.entities_at_start + r.events.projectiles as usize;
+            totals.entities_owned += r.entities_owned;
+            totals.ops_routed += s.ops_routed;
+            totals.ops_applied += s.ops_applied;
+            totals.ops_dropped += s.ops_dropped_not_owner + s.ops_dropped_invalid;
+            totals.contacts_sent += s.contacts_sent;
+            totals.contacts_received += s.contacts_received;
+            totals.handoffs_out += s.handoffs_out;
+            totals.handoffs_in += s.handoffs_in;
+            totals.overflow_drops += r.transport_stats.overflow_drops;
+            totals.malformed += r.transport_stats.malformed_drops + s.frames_malformed;
+            totals.states_rejected += s.states_rejected;
+            totals.overruns += r.overruns;
+            pods.push(PodSummary {
+                cluster: r.cluster.clone(),
+                ticks: r.ticks,
+                tick_time: r.tick_time.summary(),
+                overruns: r.overruns,
+                max_lag_ns: r.max_lag_ns,
+                start_late_ns: r.start_late_ns,
+                entities_at_start: r.entities_at_start,
+                entities_owned: r.entities_owned,
+                proxies: r.proxies,
+                proxies_peak: r.proxies_peak,
+                cluster_stats: r.cluster_stats,
+                transport_stats: r.transport_stats,
+                events: r.events,
+                ops: r.ops.summary(),
+            });
+        }
+        Self {
+            scene: scene.to_owned(),
+            transport,
+            rate_hz: plan.rate,
+            proxy_mode: plan.proxy_mode,
+            replication_interval: plan.replication_interval,
+            wall_s,
+            pods,
+            totals,
+            ops: all_ops.summary(),
+        }
+    }
+}
+
+/// The report as text.
+pub fn table(report: &RunReport) -> String {
+    let ticks = report.pods.iter().map(|p| p.ticks).max().unwrap_or(0);
+    let rate = if report.rate_hz > 0.0 {
+        format!("at {} Hz", report.rate_hz)
+    } else {
+        "as fast as possible".to_owned()
+    };
+    let mut out = format!(
+        "seam run: {} on {}, {} pods, {ticks} ticks {rate}, {:?} proxies, replication every {} \
+         tick(s), {:.1} s\n\n",
+        report.scene,
+        report.transport,
+        report.pods.len(),
+        report.proxy_mode,
+        report.replication_interval,
+        report.wall_s
+    );
+    out += &format!(
+        "{:<12} {:>6} | {:>6} {:>6} {:>6} {:>6} {:>5} | {:>6} {:>7} | {:>6} {:>6} {:>4} | {:>5} \
+         {:>5} | {:>4} {:>4} | {:>5} {:>5}\n",
+        "pod",
+        "ticks",
+        "p50",
+        "p99",
+        "p99.9",
+        "max",
+        "over",
+        "owned",
+        "proxies",
+        "ops>",
+        "ops<",
+        "drop",
+        "cont>",
+        "cont<",
+        "ho>",
+        "ho<",
+        "ovfl",
+        "bad"
+    );
+    for p in &report.pods {
+        let s = &p.cluster_stats;
+        let t = &p.tick_time;
+        out += &format!(
+            "{:<12} {:>6} | {:>6} {:>6} {:>6} {:>6} {:>5} | {:>6} {:>7} | {:>6} {:>6} {:>4} | \
+             {:>5} {:>5} | {:>4} {:>4} | {:>5} {:>5}\n",
+            p.cluster,
+            p.ticks,
+            millis(t.p50_ns),
+            millis(t.p99_ns),
+            millis(t.p999_ns),
+            millis(t.max_ns),
+            p.overruns,
+            p.entities_owned,
+            p.proxies,
+            s.ops_routed,
+            s.ops_applied,
+            s.ops_dropped_not_owner + s.ops_dropped_invalid,
+            s.contacts_sent,
+            s.contacts_received,
+            s.handoffs_out,
+            s.handoffs_in,
+            p.transport_stats.overflow_drops,
+            p.transport_stats.malformed_drops + s.frames_malformed,
+        );
+    }
+    out += "tick times in ms; over = ticks longer than the tick period; ops> routed out, ops< \
+            applied here, drop = dropped here; cont> contacts with proxies sent to their owner, \
+            cont< received; ho> hand-offs out, ho< in; ovfl = messages lost to a full buffer, \
+            bad = malformed\n\n";
+
+    let o = &report.ops;
+    out += &format!("routed ops applied: {}\n", o.ops);
+    if o.ops > 0 {
+        let period_ns = if report.rate_hz > 0.0 {
+            Some(1e9 / report.rate_hz)
+        } else {
+            None
+        };
+        out += &format!(
+            "{:<32} {:>9} {:>9} {:>9} {:>9} | {:>9}\n",
+            "stage (µs)", "p50", "p99", "p99.9", "max", "p50 ticks"
+        );
+        for (name, s) in [
+            ("queue     issued → published", &o.queue),
+            ("transport published → received", &o.transport),
+            ("apply     received → applied", &o.apply),
+            ("whole     issued → applied", &o.whole),
+        ] {
+            let in_ticks =
+                period_ns.map_or("-".to_owned(), |p| format!("{:.3}", s.p50_ns as f64 / p));
+            out += &format!(
+                "{name:<32} {:>9} {:>9} {:>9} {:>9} | {in_ticks:>9}\n",
+                micros(s.p50_ns),
+                micros(s.p99_ns),
+                micros(s.p999_ns),
+                micros(s.max_ns)
+            );
+        }
+        out += &format!(
+            "whole in ticks (applied tick − issued tick): p50 {}, p99 {}, p99.9 {}, max {}\n",
+            o.ticks.p50, o.ticks.p99, o.ticks.p999, o.ticks.max
+        );
+    }
+    let t = &report.totals;
+    out += &format!(
+        "\nentities: {} expected (spawned + fired), {} owned at the end; ops routed {}, applied {}, \
+         dropped {}; contacts {} sent, {} received; hand-offs {} out, {} in; overruns {}\n",
+        t.entities_expected,
+        t.entities_owned,
+        t.ops_routed,
+        t.ops_applied,
+        t.ops_dropped,
+        t.contacts_sent,
+        t.contacts_received,
+        t.handoffs_out,
+        t.handoffs_in,
+        t.overruns
+    );
+    out
+}
+
+fn millis(nanos: u64) -> String {
+    format!("{:.2}", nanos as f64 / 1e6)
+}

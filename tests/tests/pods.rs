@@ -1,0 +1,92 @@
+//! The main job end to end: `crossfire`'s two clusters as real pod processes on one host, over
+//! shared memory and over Redis, each ticking on its own schedule. Checks that routed ops,
+//! contacts and a hand-off crossed between the pods, and that no entity was lost.
+
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use seam_bench::node::ProxyModeArg;
+use seam_bench::run::{self, PodSummary, RunPlan, RunReport};
+use seam_tests::TestContext;
+
+seam_tests::backend_tests!(
+    [shm: Shm, redis: Redis],
+    [crossfire_pods_cross_the_seam]
+);
+
+fn scene(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../bench/scenes")
+        .join(format!("{name}.toml"))
+}
+
+fn run_pods(ctx: &TestContext, scene_name: &str, ticks: u64) -> RunReport {
+    let plan = RunPlan {
+        scene: scene(scene_name),
+        transport: ctx.url(),
+        // Faster than real time, so the test takes seconds; the scene's events all fall
+        // within `ticks`.
+        rate: 300.0,
+        ticks: Some(ticks),
+        proxy_mode: ProxyModeArg::Fixed,
+        replication_interval: 1,
+        run_id: run::fresh_run_id(),
+        node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
+        start_delay: Duration::from_millis(500),
+    };
+    run::run(&plan, &AtomicBool::new(false), |_| {})
+        .unwrap_or_else(|e| panic!("seam run {scene_name} on {}: {e}", ctx.url()))
+}
+
+fn pod<'a>(report: &'a RunReport, name: &str) -> &'a PodSummary {
+    report
+        .pods
+        .iter()
+        .find(|p| p.cluster == name)
+        .unwrap_or_else(|| panic!("no pod {name} in the report"))
+}
+
+fn crossfire_pods_cross_the_seam(ctx: &TestContext) {
+    let report = run_pods(ctx, "crossfire", 360);
+    let text = run::table(&report);
+    let (west, east) = (pod(&report, "west"), pod(&report, "east"));
+    for p in [west, east] {
+        assert_eq!(p.ticks, 360, "{} ran every tick\n{text}", p.cluster);
+        assert_eq!(p.transport_stats.overflow_drops, 0, "{text}");
+        assert_eq!(p.transport_stats.malformed_drops, 0, "{text}");
+    }
+
+    // Ops: west's raycast volley and explosion push crates east owns; east applies every one.
+    assert!(west.events.writes_routed > 0, "west routed pushes\n{text}");
+    assert_eq!(west.cluster_stats.ops_routed, west.events.writes_routed);
+    assert_eq!(
+        east.cluster_stats.ops_applied, west.cluster_stats.ops_routed,
+        "every routed op was applied by its owner\n{text}"
+    );
+    assert_eq!(
+        east.ops.ops, east.cluster_stats.ops_applied,
+        "one timing per op"
+    );
+    assert!(east.ops.transport.p50_ns > 0 && east.ops.whole.p50_ns >= east.ops.transport.p50_ns);
+    assert_eq!(east.cluster_stats.ops_dropped_not_owner, 0);
+
+    // Contacts: west's projectile strikes east's crates, which west sees as proxies.
+    assert!(
+        east.cluster_stats.contacts_received > 0,
+        "contacts with east's proxies reached east\n{text}"
+    );
+    assert!(report.totals.contacts_received <= report.totals.contacts_sent);
+
+    // Hand-off: west hands the runner to east at tick 300.
+    assert_eq!(west.events.handoffs, 1, "{text}");
+    assert_eq!(west.cluster_stats.handoffs_out, 1, "{text}");
+    assert_eq!(east.cluster_stats.handoffs_in, 1, "{text}");
+    assert_eq!(east.entities_owned, east.entities_at_start + 1, "{text}");
+
+    // Nothing lost: everything spawned or fired is owned by exactly one pod at the end.
+    assert_eq!(
+        report.totals.entities_owned, report.totals.entities_expected,
+        "{text}"
+    );
+}
