@@ -51,6 +51,14 @@ enum Command {
         /// A replication frame every this many ticks.
         #[arg(long, default_value_t = 1)]
         replication_interval: u64,
+        /// Stack this many copies of every grid entity along y, `spacing[1]` apart: the same
+        /// traffic with more entities (`grid` holds 2 500 balls per layer).
+        #[arg(long, default_value_t = 1)]
+        layers: u32,
+        /// Tick every pod at the same moment (default: pod i of n ticks i/n of a period later,
+        /// so co-hosted pods do not all want a core at once).
+        #[arg(long)]
+        in_phase: bool,
         /// Print the report as one JSON object.
         #[arg(long)]
         json: bool,
@@ -232,6 +240,8 @@ fn main() -> ExitCode {
             ticks,
             proxy_mode,
             replication_interval,
+            layers,
+            in_phase,
             json,
         } => run_scene(RunPlan {
             scene,
@@ -240,9 +250,11 @@ fn main() -> ExitCode {
             ticks,
             proxy_mode,
             replication_interval,
+            layers,
             run_id: run::fresh_run_id(),
             node_command: Vec::new(),
             start_delay: std::time::Duration::from_millis(750),
+            in_phase,
         })
         .map(|report| {
             if json {

@@ -43,6 +43,9 @@ impl WriteRouter for Outbox<'_> {
     }
 }
 
+/// Room for a physics-events frame when advertising (about 80 ops; larger frames grow it).
+const EVENTS_ROOM: usize = 4096;
+
 /// Op timings kept between two [`Cluster::take_op_timings`] calls.
 pub const MAX_OP_TIMINGS: usize = 1 << 20;
 
@@ -151,6 +154,31 @@ impl Cluster {
             ..*state
         };
         self.sim.spawn(&state, role)?;
+        Ok(())
+    }
+
+    /// Gets the transport ready to publish this cluster's frames, so the first tick does not
+    /// pay for setting channels up (on shm: creating services and shared memory, milliseconds
+    /// per channel). Call it after spawning the entities the cluster starts with: the
+    /// replication channel gets room for a frame of them all, with a quarter to spare.
+    pub fn advertise(&mut self) -> Result<(), ClusterError> {
+        let me = self.id();
+        let owned = self
+            .sim
+            .entities()
+            .filter(|(_, info)| info.cluster_id == me)
+            .count();
+        let frame = ReplicationFrame {
+            from: me,
+            tick: 0,
+            states: Vec::new(),
+        };
+        let room = frame.max_encoded_len() + (owned + owned / 4) * wire::MAX_STATE_LEN;
+        self.transport.advertise(&self.replication_channel, room)?;
+        for &neighbour in &self.config.neighbours {
+            self.transport
+                .advertise(&channels::physics_events(neighbour), EVENTS_ROOM)?;
+        }
         Ok(())
     }
 

@@ -31,9 +31,11 @@ fn run_pods(ctx: &TestContext, scene_name: &str, ticks: u64) -> RunReport {
         ticks: Some(ticks),
         proxy_mode: ProxyModeArg::Fixed,
         replication_interval: 1,
+        layers: 1,
         run_id: run::fresh_run_id(),
         node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
         start_delay: Duration::from_millis(500),
+        in_phase: false,
     };
     run::run(&plan, &AtomicBool::new(false), |_| {})
         .unwrap_or_else(|e| panic!("seam run {scene_name} on {}: {e}", ctx.url()))

@@ -68,6 +68,17 @@ pub trait Transport {
         write: &mut dyn FnMut(&mut [u8]) -> Option<usize>,
     ) -> Result<usize, PublishError>;
 
+    /// Gets ready to publish on `channel` payloads of about `expected_payload` bytes, so the
+    /// first publish costs no more than the next ones. On iceoryx2 this creates the channel's
+    /// service and publisher now, with shared memory for `expected_payload` (capped at the
+    /// maximum payload), instead of at the first publish; Redis has nothing to prepare.
+    /// Publishing works without it.
+    fn advertise(&mut self, channel: &str, expected_payload: usize) -> Result<(), PublishError> {
+        let _ = expected_payload;
+        crate::channel::validate_channel(channel)?;
+        Ok(())
+    }
+
     /// Starts receiving messages published on `channel`.
     fn subscribe(&mut self, channel: &str) -> Result<(), SubscribeError>;
 

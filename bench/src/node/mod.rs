@@ -74,6 +74,10 @@ pub struct NodeArgs {
     /// A replication frame every this many ticks.
     #[arg(long, default_value_t = 1)]
     pub replication_interval: u64,
+    /// Stack this many copies of every grid entity along y (see `Scene::stacked`): the same
+    /// scene with more entities.
+    #[arg(long, default_value_t = 1)]
+    pub layers: u32,
     /// Tick 0 at this CLOCK_MONOTONIC time, ns (set by `seam run` so pods tick in phase).
     #[arg(long, hide = true)]
     pub start_at: Option<u64>,
@@ -111,7 +115,9 @@ pub fn run_node(
     stop: &AtomicBool,
     out: &mut impl Write,
 ) -> Result<NodeReport, String> {
-    let scene = crate::scene::load(&args.scene).map_err(|e| e.to_string())?;
+    let scene = crate::scene::load(&args.scene)
+        .map_err(|e| e.to_string())?
+        .stacked(args.layers)?;
     if !(args.rate.is_finite() && args.rate >= 0.0) {
         return Err(format!("--rate must be 0 or positive, not {}", args.rate));
     }

@@ -225,6 +225,7 @@ impl Pod {
                 }
             }
         }
+        cluster.advertise()?;
         let mut events: Vec<(usize, Event)> = scene.events.iter().cloned().enumerate().collect();
         events.sort_by_key(|(index, event)| (event.tick(), *index));
         Ok(Self {

@@ -1,9 +1,11 @@
 //! `seam run`: the main job — one `seam node` process per cluster of a scene on this host,
 //! progress while they run, and one report when they are done.
 //!
-//! Every pod gets the same run id (so they agree on ids and no other run hears them) and the
-//! same start time on the host's monotonic clock, a moment after launch, so tick `k` of every
-//! pod falls together. Each pod prints JSON lines ([`NodeLine`]); this side reads them, shows
+//! Every pod gets the same run id (so they agree on ids and no other run hears them) and a
+//! start time on the host's monotonic clock, a moment after launch. Pods are staggered: pod `i`
+//! of `n` ticks `i/n` of a period after pod 0, so co-hosted pods do not all want a core at the
+//! same moment, and a frame sent at the end of one pod's tick waits less for the next tick of
+//! its receiver. `in_phase` starts them together instead. Each pod prints JSON lines ([`NodeLine`]); this side reads them, shows
 //! progress, and merges the final reports: per pod its ticks, tick-time percentiles and
 //! overruns, entities and proxies, ops, contacts, hand-offs and drops; for all pods together the
 //! routed-op stages. SIGINT or SIGTERM is passed on to the pods, which stop after their current
@@ -38,12 +40,16 @@ pub struct RunPlan {
     pub proxy_mode: ProxyModeArg,
     /// A replication frame every this many ticks.
     pub replication_interval: u64,
+    /// Copies of every grid entity stacked along y.
+    pub layers: u32,
     /// Shared by the pods of this run.
     pub run_id: String,
     /// The command that starts a pod, before its flags: `[seam, "node"]`.
     pub node_command: Vec<OsString>,
     /// How long after launch tick 0 is due (time for pods to start and open the transport).
     pub start_delay: Duration,
+    /// Tick all pods at the same moment instead of staggering them over the period.
+    pub in_phase: bool,
 }
 
 /// Where the run is, for progress output.
@@ -92,7 +98,9 @@ pub fn run(
     stop: &AtomicBool,
     mut progress: impl FnMut(&RunProgress<'_>),
 ) -> Result<RunReport, String> {
-    let scene = crate::scene::load(&plan.scene).map_err(|e| e.to_string())?;
+    let scene = crate::scene::load(&plan.scene)
+        .map_err(|e| e.to_string())?
+        .stacked(plan.layers)?;
     let ticks = plan.ticks.unwrap_or(scene.ticks);
     let (program, leading) = plan
         .node_command
@@ -102,7 +110,13 @@ pub fn run(
     let launched = Instant::now();
     let (lines, incoming) = mpsc::channel::<(usize, Result<NodeLine, String>)>();
     let mut pods = Pods(Vec::new());
+    let pods_n = scene.clusters.len() as u64;
     for (index, cluster) in scene.clusters.iter().enumerate() {
+        let offset = if plan.in_phase || plan.rate <= 0.0 {
+            0
+        } else {
+            (1e9 / plan.rate) as u64 * index as u64 / pods_n
+        };
         let mut command = Command::new(program);
         command
             .args(leading)
@@ -117,7 +131,8 @@ pub fn run(
                 "--replication-interval",
                 &plan.replication_interval.to_string(),
             ])
-            .args(["--start-at", &start_at.to_string(), "--quiet"])
+            .args(["--layers", &plan.layers.to_string()])
+            .args(["--start-at", &(start_at + offset).to_string(), "--quiet"])
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit());
@@ -203,7 +218,7 @@ pub fn run(
         return Err(problems.join("\n"));
     }
     Ok(RunReport::new(
-        &scene.name,
+        &scene,
         seam_transport::redact_url(&plan.transport),
         plan,
         wall_s,

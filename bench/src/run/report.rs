@@ -77,6 +77,8 @@ pub struct Totals {
 pub struct RunReport {
     /// Scene name.
     pub scene: String,
+    /// Entities the scene spawns at the start.
+    pub entities: u64,
     /// Transport URL, password hidden.
     pub transport: String,
     /// Ticks per second (0: as fast as possible).
@@ -98,7 +100,7 @@ pub struct RunReport {
 impl RunReport {
     /// Merges the pods' reports.
     pub(super) fn new(
-        scene: &str,
+        scene: &crate::scene::Scene,
         transport: String,
         plan: &RunPlan,
         wall_s: f64,
@@ -141,7 +143,8 @@ impl RunReport {
             });
         }
         Self {
-            scene: scene.to_owned(),
+            scene: scene.name.clone(),
+            entities: scene.entity_count(),
             transport,
             rate_hz: plan.rate,
             proxy_mode: plan.proxy_mode,
@@ -163,9 +166,10 @@ pub fn table(report: &RunReport) -> String {
         "as fast as possible".to_owned()
     };
     let mut out = format!(
-        "seam run: {} on {}, {} pods, {ticks} ticks {rate}, {:?} proxies, replication every {} \
-         tick(s), {:.1} s\n\n",
+        "seam run: {} ({} entities) on {}, {} pods, {ticks} ticks {rate}, {:?} proxies, \
+         replication every {} tick(s), {:.1} s\n\n",
         report.scene,
+        report.entities,
         report.transport,
         report.pods.len(),
         report.proxy_mode,

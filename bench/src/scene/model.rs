@@ -273,6 +273,34 @@ fn find(text: &str, key: &str, value: &str) -> usize {
 }
 
 impl Scene {
+    /// Entities the scene spawns at the start (grid copies included).
+    pub fn entity_count(&self) -> u64 {
+        self.entities.iter().map(Entity::copies).sum()
+    }
+
+    /// The scene with `layers` copies of every grid entity stacked along y, `spacing[1]` apart:
+    /// the same traffic across the same seams, `layers` times the entities. Refused for a grid
+    /// entity with no y spacing (its copies would overlap).
+    pub fn stacked(mut self, layers: u32) -> Result<Scene, String> {
+        if layers == 0 {
+            return Err("--layers must be at least 1".into());
+        }
+        for entity in &mut self.entities {
+            if let Some(grid) = &mut entity.grid
+                && layers > 1
+            {
+                if grid.spacing[1] <= 0.0 {
+                    return Err(format!(
+                        "entity {:?}: cannot stack layers: its grid has no y spacing",
+                        entity.name
+                    ));
+                }
+                grid.count[1] = grid.count[1].saturating_mul(layers);
+            }
+        }
+        Ok(self)
+    }
+
     /// Checks what a run relies on; on failure, the byte offset to report and the message.
     pub(super) fn check(&self, text: &str) -> Result<(), (usize, String)> {
         let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());

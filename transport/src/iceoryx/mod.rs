@@ -104,10 +104,15 @@ where
         &self.config
     }
 
-    fn outlet(&mut self, channel: &str) -> Result<&mut Outlet<S>, PublishError> {
+    /// The channel's outlet, created (with room for `initial_len` bytes) if it has none yet.
+    fn outlet(
+        &mut self,
+        channel: &str,
+        initial_len: usize,
+    ) -> Result<&mut Outlet<S>, PublishError> {
         if !self.outlets.contains_key(channel) {
-            let outlet =
-                Outlet::create(&self.node, &self.config, channel).map_err(|e| match e {
+            let outlet = Outlet::create(&self.node, &self.config, channel, initial_len).map_err(
+                |e| match e {
                     PortError::Incompatible(reason) => PublishError::IncompatibleService {
                         channel: channel.to_owned(),
                         reason,
@@ -116,7 +121,8 @@ where
                         channel: channel.to_owned(),
                         reason,
                     },
-                })?;
+                },
+            )?;
             self.outlets.insert(channel.to_owned(), outlet);
         }
         Ok(self
@@ -290,7 +296,8 @@ where
             return Err(PublishError::PayloadTooLarge { len: capacity, max });
         }
         let publisher_id = self.publisher_id;
-        let outlet = self.outlet(channel)?;
+        let initial = self.config.initial_payload;
+        let outlet = self.outlet(channel, initial)?;
         let reached = outlet.send_with(publisher_id, capacity, write)?;
         self.intake.stats.published += 1;
         Ok(reached)
@@ -306,9 +313,18 @@ where
             });
         }
         let publisher_id = self.publisher_id;
-        let reached = self.outlet(channel)?.send_copy(publisher_id, payload)?;
+        let initial = self.config.initial_payload;
+        let reached = self
+            .outlet(channel, initial)?
+            .send_copy(publisher_id, payload)?;
         self.intake.stats.published += 1;
         Ok(reached)
+    }
+
+    fn advertise(&mut self, channel: &str, expected_payload: usize) -> Result<(), PublishError> {
+        validate_channel(channel)?;
+        let initial = self.config.initial_payload.max(expected_payload);
+        self.outlet(channel, initial).map(|_| ())
     }
 
     fn subscribe(&mut self, channel: &str) -> Result<(), SubscribeError> {

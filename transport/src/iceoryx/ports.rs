@@ -86,15 +86,18 @@ pub(super) struct Outlet<S: Service> {
 }
 
 impl<S: Service> Outlet<S> {
+    /// A publisher on `channel` whose first shared memory holds `initial_len` bytes (capped at
+    /// the maximum payload); it grows by powers of two when a larger payload comes.
     pub(super) fn create(
         node: &Node<S>,
         config: &IceoryxConfig,
         channel: &str,
+        initial_len: usize,
     ) -> Result<Self, PortError> {
         let (data, wake) = services(node, config, channel)?;
         let publisher = data
             .publisher_builder()
-            .initial_max_slice_len(config.initial_payload.min(config.max_payload))
+            .initial_max_slice_len(initial_len.min(config.max_payload))
             .allocation_strategy(AllocationStrategy::PowerOfTwo)
             .create()
             .map_err(|e| PortError::Unavailable(e.to_string()))?;
