@@ -58,7 +58,10 @@
 //!    ops queued for it and the contacts between this cluster's bodies and its proxies.
 //!
 //! Every frame is tagged with its sender's step count. [`Cluster::tick`] uses whatever has
-//! arrived (free-running pods); [`Cluster::tick_lockstep`] and [`lockstep_round`] wait, by
+//! arrived (free-running pods, which sleep in [`Cluster::wait`] between ticks): every events
+//! frame, and of each neighbour's replication frames the newest, with any hand-off an older one
+//! carried (the old owner stops listing an entity once handed, so dropping that frame would
+//! lose the entity); [`Cluster::tick_lockstep`] and [`lockstep_round`] wait, by
 //! counting frames, for exactly the neighbours' frames of the same step count and keep newer
 //! ones for later, so a run gives the same result on every transport.
 //!

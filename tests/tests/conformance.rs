@@ -19,7 +19,8 @@ seam_tests::backend_tests!(
     bad_input_rejected,
     writer_errors,
     receive_waits_without_spinning,
-    wakes_on_publish_from_another_thread]
+    wakes_on_publish_from_another_thread,
+    advertise_prepares_publishing]
 );
 
 fn round_trip(ctx: &TestContext) {
@@ -383,4 +384,34 @@ fn wakes_on_publish_from_another_thread(ctx: &TestContext) {
         "woken by the publish, not the timeout"
     );
     assert_eq!(publisher.join().expect("publisher thread"), 1);
+}
+
+fn advertise_prepares_publishing(ctx: &TestContext) {
+    let (mut publisher, mut subscriber) = (ctx.open(), ctx.open());
+    let channel = ctx.channel("advertised");
+    subscriber.subscribe(&channel).expect("subscribe");
+    publisher
+        .advertise(&channel, 100_000)
+        .expect("advertise with room for 100 kB");
+    assert_eq!(
+        publisher.stats().published,
+        0,
+        "advertising publishes nothing"
+    );
+    assert!(
+        subscriber.try_receive().expect("receive").is_none(),
+        "nothing arrives from advertising"
+    );
+    // Larger than advertised still goes (the shared memory grows), and so does smaller.
+    for size in [10, 100_000, 300_000] {
+        let payload = vec![size as u8; size];
+        assert_eq!(publisher.publish(&channel, &payload).expect("publish"), 1);
+        let message = receive(subscriber.as_mut(), PATIENCE).expect("arrives");
+        assert_eq!(message.payload.len(), size);
+    }
+    assert_eq!(
+        publisher.advertise("", 10),
+        Err(PublishError::Channel(ChannelError::Empty)),
+        "a bad channel name is refused"
+    );
 }

@@ -59,9 +59,10 @@ impl SceneIds {
         EntityId::from_u128(self.hash("entity", name, index))
     }
 
-    /// The entity made by the scene's event number `index` (a projectile).
-    pub fn event_entity(&self, index: usize) -> EntityId {
-        EntityId::from_u128(self.hash("event", "", index as u64))
+    /// The entity made by repetition `shot` of the scene's event number `index` (a
+    /// projectile).
+    pub fn event_entity(&self, index: usize, shot: u64) -> EntityId {
+        EntityId::from_u128(self.hash("event", &index.to_string(), shot))
     }
 }
 
@@ -83,6 +84,7 @@ mod tests {
         );
         assert_ne!(ids.entity("crate", 0), ids.entity("crate", 1));
         assert_ne!(ids.entity("ab", 0).as_u128(), ids.cluster("ab").as_u128());
-        assert_ne!(ids.event_entity(0), ids.event_entity(1));
+        assert_ne!(ids.event_entity(0, 0), ids.event_entity(1, 0));
+        assert_ne!(ids.event_entity(0, 1), ids.event_entity(1, 0));
     }
 }

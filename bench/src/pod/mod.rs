@@ -78,9 +78,8 @@ pub struct Pod {
     clusters: HashMap<String, ClusterId>,
     /// Scene entities by name (every copy of a grid entry).
     entities: HashMap<String, Vec<EntityId>>,
-    /// The scene's events with their index, in tick order.
+    /// The scene's events with their index, in order of first tick.
     events: Vec<(usize, Event)>,
-    next_event: usize,
     /// Which scene clusters this pod plays.
     plays: Vec<String>,
     /// Whether it plays all of them in one world.
@@ -234,7 +233,6 @@ impl Pod {
             clusters,
             entities,
             events,
-            next_event: 0,
             plays,
             reference: *part == Part::Reference,
             ids,
@@ -320,15 +318,15 @@ impl Pod {
     /// Fires this tick's spawns and hand-offs; returns the events that run as user code.
     fn before_tick(&mut self) -> Vec<Event> {
         let tick = self.cluster.sim().tick();
+        let firing: Vec<(usize, usize, u64)> = self
+            .events
+            .iter()
+            .enumerate()
+            .filter_map(|(at, (index, event))| event.shot_at(tick).map(|shot| (at, *index, shot)))
+            .collect();
         let mut actions = Vec::new();
-        while let Some((index, event)) = self.events.get(self.next_event) {
-            if event.tick() > tick {
-                break;
-            }
-            self.next_event += 1;
-            if event.tick() < tick {
-                continue;
-            }
+        for (at, index, shot) in firing {
+            let event = &self.events[at].1;
             match event {
                 Event::Projectile {
                     by,
@@ -341,7 +339,7 @@ impl Pod {
                 } if self.plays.contains(by) => {
                     let shape = SceneShape::Ball { radius: *radius };
                     let state = EntityState {
-                        id: self.ids.event_entity(*index),
+                        id: self.ids.event_entity(index, shot),
                         cluster_id: self.cluster.id(),
                         tick,
                         position: *position,

@@ -194,6 +194,9 @@ pub enum Event {
     Projectile {
         /// When.
         tick: u64,
+        /// Repeat every this many ticks from `tick` on (once if left out).
+        #[serde(default)]
+        every: Option<u64>,
         /// The firing cluster.
         by: String,
         /// Where it starts, m.
@@ -212,6 +215,9 @@ pub enum Event {
     Explosion {
         /// When.
         tick: u64,
+        /// Repeat every this many ticks from `tick` on (once if left out).
+        #[serde(default)]
+        every: Option<u64>,
         /// The cluster where it goes off.
         by: String,
         /// Centre, m.
@@ -225,6 +231,9 @@ pub enum Event {
     RaycastVolley {
         /// When.
         tick: u64,
+        /// Repeat every this many ticks from `tick` on (once if left out).
+        #[serde(default)]
+        every: Option<u64>,
         /// The shooting cluster.
         by: String,
         /// Where the rays start, m.
@@ -248,7 +257,7 @@ pub enum Event {
 }
 
 impl Event {
-    /// When it happens.
+    /// When it first happens.
     pub fn tick(&self) -> u64 {
         match *self {
             Event::Projectile { tick, .. }
@@ -257,6 +266,41 @@ impl Event {
             | Event::Handoff { tick, .. } => tick,
         }
     }
+
+    /// How many ticks apart it repeats, if it does.
+    pub fn every(&self) -> Option<u64> {
+        match *self {
+            Event::Projectile { every, .. }
+            | Event::Explosion { every, .. }
+            | Event::RaycastVolley { every, .. } => every,
+            Event::Handoff { .. } => None,
+        }
+    }
+
+    /// Which repetition happens at `tick` (0 for the first), if one does.
+    pub fn shot_at(&self, tick: u64) -> Option<u64> {
+        let since = tick.checked_sub(self.tick())?;
+        match self.every() {
+            Some(every) if every > 0 => since.is_multiple_of(every).then_some(since / every),
+            _ => (since == 0).then_some(0),
+        }
+    }
+}
+
+/// Byte offset of the line that sets `key` to the number `value`, for error positions.
+fn find_number(text: &str, key: &str, value: u64) -> usize {
+    let mut offset = 0;
+    for line in text.split_inclusive('\n') {
+        let mut parts = line.splitn(2, '=');
+        if let (Some(k), Some(v)) = (parts.next(), parts.next())
+            && k.trim() == key
+            && v.trim().parse() == Ok(value)
+        {
+            return offset + line.find(key).unwrap_or(0);
+        }
+        offset += line.len();
+    }
+    0
 }
 
 /// Byte offset of the line that sets `key` to the quoted `value`, for error positions.
@@ -380,6 +424,12 @@ impl Scene {
             }
         }
         for event in &self.events {
+            if event.every() == Some(0) {
+                return Err((
+                    find_number(text, "every", 0),
+                    "field `every` must be at least 1 tick".into(),
+                ));
+            }
             match event {
                 Event::Projectile {
                     by,

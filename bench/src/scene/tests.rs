@@ -96,3 +96,37 @@ fn errors_name_file_line_and_field() {
     );
     assert!(message.starts_with("bad.toml:17:"), "{message}");
 }
+
+#[test]
+fn layers_stack_grid_entities() {
+    let grid = load(&scene_file("grid.toml")).expect("grid loads");
+    assert_eq!(
+        grid.clone().stacked(1).expect("one layer").entity_count(),
+        2500
+    );
+    assert_eq!(
+        grid.clone().stacked(4).expect("four").entity_count(),
+        10_000
+    );
+    assert!(grid.stacked(0).is_err(), "zero layers refused");
+    let flat = parse(
+        "flat.toml",
+        r#"name = "flat"
+[[cluster]]
+name = "a"
+region = { min = [0, 0, 0], max = [9, 9, 9] }
+[[entity]]
+name = "tiles"
+owner = "a"
+shape = { kind = "ball", radius = 0.1 }
+mass = 1.0
+position = [0, 0, 0]
+grid = { count = [3, 1, 3], spacing = [1, 0, 1] }
+"#,
+    )
+    .expect("parses");
+    let err = flat
+        .stacked(2)
+        .expect_err("no y spacing: the layers would overlap");
+    assert!(err.contains("y spacing"), "{err}");
+}
