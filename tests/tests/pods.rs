@@ -3,8 +3,8 @@
 //! contacts and a hand-off crossed between the pods, and that no entity was lost.
 
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
-use std::time::Duration;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 use seam_bench::node::ProxyModeArg;
 use seam_bench::run::{self, PodSummary, RunPlan, RunReport};
@@ -21,13 +21,11 @@ fn scene(name: &str) -> PathBuf {
         .join(format!("{name}.toml"))
 }
 
-fn run_pods(ctx: &TestContext, scene_name: &str, ticks: u64) -> RunReport {
-    let plan = RunPlan {
+fn plan(scene_name: &str, transport: String, rate: f64, ticks: u64) -> RunPlan {
+    RunPlan {
         scene: scene(scene_name),
-        transport: ctx.url(),
-        // Faster than real time, so the test takes seconds; the scene's events all fall
-        // within `ticks`.
-        rate: 300.0,
+        transport,
+        rate,
         ticks: Some(ticks),
         proxy_mode: ProxyModeArg::Fixed,
         replication_interval: 1,
@@ -36,7 +34,13 @@ fn run_pods(ctx: &TestContext, scene_name: &str, ticks: u64) -> RunReport {
         node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
         start_delay: Duration::from_millis(500),
         in_phase: false,
-    };
+    }
+}
+
+fn run_pods(ctx: &TestContext, scene_name: &str, ticks: u64) -> RunReport {
+    // Faster than real time, so the test takes seconds; the scene's events all fall within
+    // `ticks`.
+    let plan = plan(scene_name, ctx.url(), 300.0, ticks);
     run::run(&plan, &AtomicBool::new(false), |_| {})
         .unwrap_or_else(|e| panic!("seam run {scene_name} on {}: {e}", ctx.url()))
 }
@@ -91,4 +95,49 @@ fn crossfire_pods_cross_the_seam(ctx: &TestContext) {
         report.totals.entities_owned, report.totals.entities_expected,
         "{text}"
     );
+}
+
+/// A stop request (what SIGINT or SIGTERM sets in `seam run`) reaches the pods, which stop after
+/// their current tick and still report.
+#[test]
+fn stopping_a_run_stops_the_pods_and_keeps_their_reports() {
+    let Some(ctx) = TestContext::new(seam_transport::Backend::Shm) else {
+        return;
+    };
+    let plan = plan("crossfire", ctx.url(), 60.0, 60 * 600);
+    let stop = AtomicBool::new(false);
+    let started = Instant::now();
+    let report = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            std::thread::sleep(Duration::from_millis(1500));
+            stop.store(true, Ordering::Relaxed);
+        });
+        run::run(&plan, &stop, |_| {}).expect("a stopped run still reports")
+    });
+    assert!(
+        started.elapsed() < Duration::from_secs(30),
+        "stopped long before its 600 s"
+    );
+    for pod in &report.pods {
+        assert!(
+            pod.ticks > 0 && pod.ticks < 60 * 600,
+            "{} stopped early after some ticks: {}",
+            pod.cluster,
+            pod.ticks
+        );
+    }
+}
+
+/// Pods that cannot start (a Redis server that is not there) make the run fail with their
+/// error, promptly, and leave no process behind.
+#[test]
+fn pods_that_cannot_start_fail_the_run_clearly() {
+    let plan = plan("crossfire", "redis://127.0.0.1:1".into(), 60.0, 60);
+    let started = Instant::now();
+    let error = run::run(&plan, &AtomicBool::new(false), |_| {}).expect_err("no server, no run");
+    assert!(
+        error.contains("\"west\"") && error.contains("\"east\""),
+        "{error}"
+    );
+    assert!(started.elapsed() < Duration::from_secs(30));
 }

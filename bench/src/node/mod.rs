@@ -132,7 +132,8 @@ pub fn run_node(
         replication_interval: args.replication_interval,
     };
     let shown = seam_transport::redact_url(&args.transport);
-    let mut pod = Pod::new(&scene, &part, &settings).map_err(|e| format!("{shown}: {e}"))?;
+    let mut pod = Pod::new(&scene, &part, &settings)
+        .map_err(|e| format!("{}: {shown}: {e}", pod_name(&part)))?;
     let ticks = args.ticks.unwrap_or(scene.ticks);
     let period_ns = (args.rate > 0.0).then(|| (1e9 / args.rate) as u64);
 

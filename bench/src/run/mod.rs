@@ -200,18 +200,23 @@ pub fn run(
             signalled = true;
         }
     }
+    let mut failed = Vec::new();
     for (name, child) in &mut pods.0 {
         let status = child.wait().map_err(|e| format!("pod {name:?}: {e}"))?;
+        failed.push(!status.success());
         if !status.success() {
-            problems.push(format!("pod {name:?} exited with {status}"));
+            problems.push(format!(
+                "pod {name:?} exited with {status} (its error is above)"
+            ));
         }
     }
     let wall_s = launched.elapsed().as_secs_f64();
     let mut complete = Vec::new();
-    for ((name, _), report) in pods.0.iter().zip(reports) {
+    for (((name, _), report), failed) in pods.0.iter().zip(reports).zip(failed) {
         match report {
             Some(report) => complete.push(report),
-            None => problems.push(format!("pod {name:?} sent no report")),
+            None if !failed => problems.push(format!("pod {name:?} sent no report")),
+            None => {}
         }
     }
     if !problems.is_empty() {

@@ -41,18 +41,34 @@ pub use model::{Cluster, Entity, Event, Grid, Region, Role, Scene, SceneShape, V
 use std::path::Path;
 
 /// Why a scene file cannot be used.
-#[derive(Debug, thiserror::Error)]
-#[error("{file}:{line}:{column}: {message}")]
+#[derive(Debug)]
 pub struct SceneError {
     /// The file.
     pub file: String,
-    /// 1-based line of the offending value.
+    /// 1-based line of the offending value (0 when the file could not be read).
     pub line: usize,
     /// 1-based column.
     pub column: usize,
     /// What is wrong, naming the field.
     pub message: String,
 }
+
+impl std::fmt::Display for SceneError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.line == 0 {
+            // Not about a place in the file (it could not be read).
+            write!(f, "{}: {}", self.file, self.message)
+        } else {
+            write!(
+                f,
+                "{}:{}:{}: {}",
+                self.file, self.line, self.column, self.message
+            )
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
 
 /// Line and column (1-based) of byte `offset` in `text`.
 fn position(text: &str, offset: usize) -> (usize, usize) {
