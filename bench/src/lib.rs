@@ -8,7 +8,10 @@
 //! - [`run`] — `seam run`: starts one pod per cluster of a scene, shows progress, merges their
 //!   reports.
 //! - [`node`] — `seam node`: one pod, ticking on a schedule and sleeping on its transport.
+//! - [`accuracy`] — a split run against its single-world reference, tick by tick: accuracy
+//!   and cost of one setting.
 //! - [`pod`] — one cluster playing its part of a scene (spawns, events, op stage times).
+//! - [`sweep`] — `seam sweep`: trials over a grid of settings, `sweep.csv` and charts.
 //! - [`ping`] — `seam ping`: one-way latency between two processes over any transport, with
 //!   plain iceoryx2 as the floor.
 //! - [`ops`] — `seam ops`: routed-op latency between two processes, stage by stage.
@@ -17,6 +20,7 @@
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.
 //! - `benches/bench_transport.rs` — in-process publish → receive per backend (criterion).
 
+pub mod accuracy;
 pub mod latency;
 pub mod node;
 pub mod ops;
@@ -24,4 +28,5 @@ pub mod ping;
 pub mod pod;
 pub mod run;
 pub mod scene;
+pub mod sweep;
 pub mod wait;

@@ -3,6 +3,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use seam_bench::accuracy::{self, TrialSettings};
 use seam_bench::node::{self, NodeArgs, ProxyModeArg};
 use seam_bench::ops::{self, OpsPlan};
 use seam_bench::ping::{self, PingPlan, WaitMode};
@@ -62,6 +63,43 @@ enum Command {
         /// Print the report as one JSON object.
         #[arg(long)]
         json: bool,
+    },
+    /// Compare one setting against the single-world reference: accuracy and cost.
+    ///
+    /// Runs the scene split over its clusters in lock-step (in this process, on iceoryx2's
+    /// in-process transport) and as one world owning everything, tick for tick, and prints
+    /// position and orientation error, projectile hit recall and precision, momentum error,
+    /// hand-off jumps, and the split run's tick time, bytes per tick, proxies and op delay.
+    Compare {
+        /// The scene file (TOML).
+        scene: std::path::PathBuf,
+        #[command(flatten)]
+        knobs: Knobs,
+        /// Print the result as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Sweep settings against the single-world reference: `sweep.csv` and charts.
+    ///
+    /// For each scene, runs one trial (as `seam compare`) per combination of proxy mode (fixed,
+    /// kinematic), replication interval (1, 2, 4, 8), projectile speed (10–2 000 m/s),
+    /// projectile CCD (off, on) and observation spread (1, 3, 10 m, everything). Writes
+    /// OUT/sweep.csv (one row per trial, every metric) and, as SVG and PNG,
+    /// OUT/accuracy_vs_cost (Pareto front marked) and OUT/hit_recall_vs_speed_<mode>.
+    Sweep {
+        /// Scene files (default: bench/scenes/gallery.toml and bench/scenes/crossfire.toml).
+        #[arg(long = "scene")]
+        scenes: Vec<std::path::PathBuf>,
+        /// A reduced grid: fixed/kinematic × interval 1, 4 × 50, 500, 2 000 m/s × CCD off/on ×
+        /// spread 3 m / everything.
+        #[arg(long)]
+        quick: bool,
+        /// Ticks per trial (default: each scene's).
+        #[arg(long)]
+        ticks: Option<u64>,
+        /// Where to write the CSV and the charts.
+        #[arg(long, default_value = "sweep")]
+        out: std::path::PathBuf,
     },
     /// One cluster pod: runs its part of a scene over a transport (started by `seam run`, or by
     /// hand on each host).
@@ -177,6 +215,90 @@ enum Command {
     },
 }
 
+/// The settings `seam compare` tries.
+#[derive(clap::Args)]
+struct Knobs {
+    /// How neighbour entities are modelled.
+    #[arg(long, value_enum, default_value_t = ProxyModeArg::Fixed)]
+    proxy_mode: ProxyModeArg,
+    /// A replication frame every this many ticks.
+    #[arg(long, default_value_t = 1)]
+    replication_interval: u64,
+    /// Observation spread of every cluster, m (default: the scene's).
+    #[arg(long)]
+    spread: Option<f32>,
+    /// Proxy every neighbour entity wherever it is (no interest management).
+    #[arg(long)]
+    everything: bool,
+    /// Speed of the scene's projectiles, m/s (default: the scene's).
+    #[arg(long)]
+    speed: Option<f32>,
+    /// CCD on the scene's projectiles: `on` or `off` (default: the scene's).
+    #[arg(long, value_parser = ["on", "off"])]
+    ccd: Option<String>,
+    /// Ticks (default: the scene's).
+    #[arg(long)]
+    ticks: Option<u64>,
+}
+
+impl Knobs {
+    fn settings(&self) -> TrialSettings {
+        TrialSettings {
+            proxy_mode: self.proxy_mode.into(),
+            replication_interval: self.replication_interval.max(1),
+            spread: self.spread,
+            interest: !self.everything,
+            projectile_speed: self.speed,
+            projectile_ccd: self.ccd.as_deref().map(|c| c == "on"),
+            ticks: self.ticks,
+        }
+    }
+}
+
+/// `seam sweep`.
+fn sweep(
+    scenes: Vec<std::path::PathBuf>,
+    quick: bool,
+    ticks: Option<u64>,
+    out: &std::path::Path,
+) -> Result<(), String> {
+    let paths = if scenes.is_empty() {
+        vec![
+            "bench/scenes/gallery.toml".into(),
+            "bench/scenes/crossfire.toml".into(),
+        ]
+    } else {
+        scenes
+    };
+    let scenes = paths
+        .iter()
+        .map(|p| {
+            seam_bench::scene::load(p)
+                .map_err(|e| format!("{e} (run from the repository root, or pass --scene FILE)"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let grid = if quick {
+        seam_bench::sweep::SweepGrid::quick()
+    } else {
+        seam_bench::sweep::SweepGrid::full()
+    };
+    let started = std::time::Instant::now();
+    let results = seam_bench::sweep::run(&scenes, &grid, ticks, |done, total, line| {
+        let width = 30;
+        let filled = done * width / total.max(1);
+        eprintln!(
+            "[{}{}] {done}/{total} {:.0} s  {line}",
+            "#".repeat(filled),
+            ".".repeat(width - filled),
+            started.elapsed().as_secs_f64()
+        );
+    })?;
+    for path in seam_bench::sweep::write(&results, out)? {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
 /// `redis` alone is shorthand for the local default server.
 fn expand_transport(name: &str) -> String {
     match name {
@@ -266,6 +388,27 @@ fn main() -> ExitCode {
                 print!("{}", run::table(&report));
             }
         }),
+        Command::Compare { scene, knobs, json } => seam_bench::scene::load(&scene)
+            .map_err(|e| e.to_string())
+            .and_then(|loaded| {
+                accuracy::run_trial(&loaded, &knobs.settings(), &run::fresh_run_id())
+            })
+            .map(|result| {
+                if json {
+                    println!(
+                        "{}",
+                        serde_json::to_string_pretty(&result).expect("results serialise")
+                    );
+                } else {
+                    print!("{}", accuracy::table(&result));
+                }
+            }),
+        Command::Sweep {
+            scenes,
+            quick,
+            ticks,
+            out,
+        } => sweep(scenes, quick, ticks, &out),
         Command::Node(args) => node::stop_flag().and_then(|stop| {
             node::run_node(&args, &stop, &mut std::io::stdout().lock()).map(|_| ())
         }),

@@ -537,7 +537,8 @@ impl Cluster {
                 tick,
                 states,
             };
-            publish_frame(self.transport.as_mut(), &self.replication_channel, &frame)?;
+            self.stats.replication_bytes +=
+                publish_frame(self.transport.as_mut(), &self.replication_channel, &frame)? as u64;
             let role = self.proxy_role();
             for (entity, to) in std::mem::take(&mut self.transfers) {
                 self.sim.set_authority(entity, to)?;
@@ -564,11 +565,11 @@ impl Cluster {
                     .unwrap_or_default(),
             };
             self.stats.ops_routed += frame.ops.len() as u64;
-            publish_frame(
+            self.stats.events_bytes += publish_frame(
                 self.transport.as_mut(),
                 &channels::physics_events(neighbour),
                 &frame,
-            )?;
+            )? as u64;
         }
         Ok(())
     }
@@ -593,14 +594,16 @@ fn decode_frame(channel: &str, payload: &[u8]) -> Option<Frame> {
     }
 }
 
-/// Encodes `frame` straight into the transport's buffer (on shm, the loaned sample).
+/// Encodes `frame` straight into the transport's buffer (on shm, the loaned sample); returns
+/// the encoded length.
 fn publish_frame<T: serde::Serialize>(
     transport: &mut dyn Transport,
     channel: &str,
     frame: &T,
 ) -> Result<usize, ClusterError> {
     let len = wire::encoded_len(frame);
-    Ok(transport.publish_with(channel, len, &mut |buffer| {
+    transport.publish_with(channel, len, &mut |buffer| {
         wire::encode_into(frame, buffer).ok()
-    })?)
+    })?;
+    Ok(len)
 }

@@ -32,4 +32,8 @@ pub struct ClusterStats {
     pub states_rejected: u64,
     /// Op timings not kept because the caller did not take them (see `Cluster::take_op_timings`).
     pub op_timings_dropped: u64,
+    /// Bytes of replication frames published (encoded frames, without transport framing).
+    pub replication_bytes: u64,
+    /// Bytes of physics-events frames published.
+    pub events_bytes: u64,
 }

@@ -88,6 +88,8 @@ pub struct Pod {
     counts: EventCounts,
     stages: OpStages,
     owned_at_start: usize,
+    /// Projectiles this pod fired.
+    fired: Vec<EntityId>,
 }
 
 /// Whether two boxes, each grown by its margin, touch or overlap.
@@ -181,6 +183,7 @@ impl Pod {
         config.replication_interval = settings.replication_interval.max(1);
         config.dt = scene.dt;
         config.gravity = scene.gravity;
+        config.max_linear_velocity = scene.max_speed;
         let mut cluster = Cluster::new(config)?;
 
         let mut entities: HashMap<String, Vec<EntityId>> = HashMap::new();
@@ -239,6 +242,7 @@ impl Pod {
             counts: EventCounts::default(),
             stages: OpStages::default(),
             owned_at_start,
+            fired: Vec::new(),
         })
     }
 
@@ -265,6 +269,11 @@ impl Pod {
     /// Entities this pod spawned at the start.
     pub fn owned_at_start(&self) -> usize {
         self.owned_at_start
+    }
+
+    /// The projectiles this pod fired, in firing order.
+    pub fn projectiles(&self) -> &[EntityId] {
+        &self.fired
     }
 
     /// What the pod's events did so far.
@@ -353,7 +362,10 @@ impl Pod {
                         },
                     };
                     match self.cluster.spawn_owned(&state, BodyRole::Dynamic) {
-                        Ok(()) => self.counts.projectiles += 1,
+                        Ok(()) => {
+                            self.counts.projectiles += 1;
+                            self.fired.push(state.id);
+                        }
                         Err(_) => self.counts.refused += 1,
                     }
                 }

@@ -20,6 +20,9 @@ pub struct Scene {
     /// Gravity, m/s².
     #[serde(default = "default_gravity")]
     pub gravity: Vec3,
+    /// Largest linear speed a body may reach, m/s (Rapier's cap; 400 unless set).
+    #[serde(default = "default_max_speed")]
+    pub max_speed: f32,
     /// The clusters, one pod each.
     #[serde(rename = "cluster")]
     pub clusters: Vec<Cluster>,
@@ -37,6 +40,10 @@ fn default_ticks() -> u64 {
 
 fn default_dt() -> f32 {
     1.0 / 60.0
+}
+
+fn default_max_speed() -> f32 {
+    400.0
 }
 
 fn default_gravity() -> Vec3 {
@@ -366,8 +373,11 @@ impl Scene {
         if self.clusters.is_empty() {
             return Err((0, "a scene needs at least one [[cluster]]".into()));
         }
-        if !(positive(self.dt) && finite(&self.gravity)) {
-            return Err((0, "field `dt` must be positive and `gravity` finite".into()));
+        if !(positive(self.dt) && finite(&self.gravity) && positive(self.max_speed)) {
+            return Err((
+                0,
+                "fields `dt` and `max_speed` must be positive and `gravity` finite".into(),
+            ));
         }
         for (i, cluster) in self.clusters.iter().enumerate() {
             if cluster_names[..i].contains(&cluster.name.as_str()) {

@@ -1,0 +1,260 @@
+//! Comparing a split run with its single-world reference, tick by tick.
+
+use std::collections::{BTreeMap, HashSet};
+
+use seam_sim::BodyRole;
+use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap, Shape};
+use serde::Serialize;
+
+use crate::pod::Pod;
+
+/// Accuracy of a split run against its reference.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Accuracy {
+    /// Position error of the scene's dynamic bodies (owner's world against the reference), RMS
+    /// over bodies and ticks, m. Projectiles are left out: once one hits in one run and not in
+    /// the other, it flies hundreds of metres apart, and the hit metrics already count that.
+    pub position_rms_m: f64,
+    /// Largest position error, m.
+    pub position_max_m: f64,
+    /// Orientation error, RMS, degrees.
+    pub rotation_rms_deg: f64,
+    /// Largest orientation error, degrees.
+    pub rotation_max_deg: f64,
+    /// Projectile hits (contact starts with a projectile, by entity pair) in the reference.
+    pub hits_reference: u64,
+    /// Projectile hits in the split run (any cluster's world, reported ones included).
+    pub hits_split: u64,
+    /// Pairs hit in both.
+    pub hits_matched: u64,
+    /// hits_matched / hits_reference (`None` when the reference has none).
+    pub hit_recall: Option<f64>,
+    /// hits_matched / hits_split (`None` when the split run has none).
+    pub hit_precision: Option<f64>,
+    /// Mean |split tick − reference tick| of matched hits.
+    pub hit_tick_offset_mean: f64,
+    /// Largest |Σ m·v (split) − Σ m·v (reference)| over ticks, kg·m/s.
+    pub momentum_error_max: f64,
+    /// Mean of that error over the mean Σ m·|v| of the reference (unitless).
+    pub momentum_error_rel: f64,
+    /// Authority flips seen.
+    pub handoffs: u64,
+    /// Largest position discontinuity at a flip, beyond the reference's own motion, m.
+    pub handoff_jump_position_m: f64,
+    /// Largest velocity discontinuity at a flip, beyond the reference's, m/s.
+    pub handoff_jump_velocity_mps: f64,
+    /// Body-ticks where an entity was dynamic in more than one cluster.
+    pub duplicate_owner_ticks: u64,
+    /// Body-ticks where a dynamic entity of the reference was in no cluster's world at all.
+    pub missing_entity_ticks: u64,
+    /// Body-ticks where it was only a proxy everywhere: between the old owner's hand-off frame
+    /// and the new owner's tick that reads it (no step happens in between in lock-step).
+    pub in_transit_ticks: u64,
+}
+
+/// Accumulates the comparison over a run.
+pub struct Comparison {
+    tick: u64,
+    pos_sq: f64,
+    rot_sq: f64,
+    samples: u64,
+    acc: Accuracy,
+    momentum_err_sum: f64,
+    momentum_ref_sum: f64,
+    reference_hits: BTreeMap<(EntityId, EntityId), u64>,
+    split_hits: BTreeMap<(EntityId, EntityId), u64>,
+    /// Last split sighting: owner, state; and the reference state then.
+    last: IdMap<EntityId, (ClusterId, EntityState, EntityState)>,
+}
+
+fn mass(state: &EntityState) -> f64 {
+    use std::f64::consts::PI;
+    let volume = match state.body.shape {
+        Shape::Ball { radius } => 4.0 / 3.0 * PI * f64::from(radius).powi(3),
+        Shape::Cuboid {
+            half_extents: [x, y, z],
+        } => 8.0 * f64::from(x * y * z),
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => {
+            let r = f64::from(radius);
+            PI * r * r * (2.0 * f64::from(half_height) + 4.0 / 3.0 * r)
+        }
+    };
+    f64::from(state.body.density) * volume
+}
+
+fn distance(a: [f32; 3], b: [f32; 3]) -> f64 {
+    (0..3)
+        .map(|k| f64::from(a[k] - b[k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// Angle between two orientations, degrees.
+fn angle_deg(a: [f32; 4], b: [f32; 4]) -> f64 {
+    let dot: f64 = (0..4).map(|k| f64::from(a[k]) * f64::from(b[k])).sum();
+    2.0 * dot.abs().min(1.0).acos().to_degrees()
+}
+
+/// The dynamic bodies a world simulates itself, with their states.
+fn simulated(pod: &Pod) -> impl Iterator<Item = EntityState> + '_ {
+    let sim = pod.cluster().sim();
+    let me = pod.cluster().id();
+    sim.entities()
+        .filter(move |(_, info)| info.cluster_id == me && info.role == BodyRole::Dynamic)
+        .filter_map(|(id, _)| sim.state(id))
+}
+
+fn record_hits(
+    pod: &Pod,
+    projectiles: &HashSet<EntityId>,
+    tick: u64,
+    hits: &mut BTreeMap<(EntityId, EntityId), u64>,
+) {
+    for contact in pod.cluster().sim().contacts() {
+        if contact.started && (projectiles.contains(&contact.a) || projectiles.contains(&contact.b))
+        {
+            let pair = (contact.a.min(contact.b), contact.a.max(contact.b));
+            hits.entry(pair).or_insert(tick);
+        }
+    }
+}
+
+impl Comparison {
+    /// A comparison of runs stepping `dt` seconds a tick.
+    pub fn new(_dt: f32) -> Self {
+        Self {
+            tick: 0,
+            pos_sq: 0.0,
+            rot_sq: 0.0,
+            samples: 0,
+            acc: Accuracy::default(),
+            momentum_err_sum: 0.0,
+            momentum_ref_sum: 0.0,
+            reference_hits: BTreeMap::new(),
+            split_hits: BTreeMap::new(),
+            last: IdMap::default(),
+        }
+    }
+
+    /// Compares the worlds after one tick of each.
+    pub fn observe(&mut self, reference: &Pod, pods: &[Pod]) {
+        self.tick += 1;
+        let tick = self.tick;
+        let truth: IdMap<EntityId, EntityState> = simulated(reference).map(|s| (s.id, s)).collect();
+        let projectiles: HashSet<EntityId> = reference.projectiles().iter().copied().collect();
+        let mut seen: IdMap<EntityId, ClusterId> = IdMap::default();
+        let (mut p_split, mut p_ref) = ([0.0f64; 3], [0.0f64; 3]);
+        for pod in pods {
+            for state in simulated(pod) {
+                let owner = pod.cluster().id();
+                if seen.insert(state.id, owner).is_some() {
+                    self.acc.duplicate_owner_ticks += 1;
+                    continue;
+                }
+                let m = mass(&state);
+                for (p, v) in p_split.iter_mut().zip(state.linvel) {
+                    *p += m * f64::from(v);
+                }
+                let Some(truth) = truth.get(&state.id) else {
+                    continue;
+                };
+                if projectiles.contains(&state.id) {
+                    continue;
+                }
+                let error = distance(state.position, truth.position);
+                let turn = angle_deg(state.rotation, truth.rotation);
+                self.pos_sq += error * error;
+                self.rot_sq += turn * turn;
+                self.samples += 1;
+                self.acc.position_max_m = self.acc.position_max_m.max(error);
+                self.acc.rotation_max_deg = self.acc.rotation_max_deg.max(turn);
+                if let Some((was, before, truth_before)) = self.last.get(&state.id)
+                    && *was != owner
+                {
+                    // An authority flip: how far the new owner's motion over the tick departs
+                    // from the reference's.
+                    self.acc.handoffs += 1;
+                    let moved = sub(state.position, before.position);
+                    let moved_truth = sub(truth.position, truth_before.position);
+                    let sped = sub(state.linvel, before.linvel);
+                    let sped_truth = sub(truth.linvel, truth_before.linvel);
+                    self.acc.handoff_jump_position_m = self
+                        .acc
+                        .handoff_jump_position_m
+                        .max(distance(moved, moved_truth));
+                    self.acc.handoff_jump_velocity_mps = self
+                        .acc
+                        .handoff_jump_velocity_mps
+                        .max(distance(sped, sped_truth));
+                }
+                self.last.insert(state.id, (owner, state, *truth));
+            }
+        }
+        let mut speed_sum = 0.0;
+        for state in truth.values() {
+            let m = mass(state);
+            for (p, v) in p_ref.iter_mut().zip(state.linvel) {
+                *p += m * f64::from(v);
+            }
+            speed_sum += m * distance(state.linvel, [0.0; 3]);
+            if !seen.contains_key(&state.id) {
+                if pods.iter().any(|p| p.cluster().sim().contains(state.id)) {
+                    self.acc.in_transit_ticks += 1;
+                } else {
+                    self.acc.missing_entity_ticks += 1;
+                }
+            }
+        }
+        let error = (0..3)
+            .map(|k| (p_split[k] - p_ref[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        self.acc.momentum_error_max = self.acc.momentum_error_max.max(error);
+        self.momentum_err_sum += error;
+        self.momentum_ref_sum += speed_sum;
+
+        record_hits(reference, &projectiles, tick, &mut self.reference_hits);
+        for pod in pods {
+            record_hits(pod, &projectiles, tick, &mut self.split_hits);
+        }
+    }
+
+    /// The accuracy over everything observed.
+    pub fn finish(mut self) -> Accuracy {
+        let n = self.samples.max(1) as f64;
+        self.acc.position_rms_m = (self.pos_sq / n).sqrt();
+        self.acc.rotation_rms_deg = (self.rot_sq / n).sqrt();
+        self.acc.momentum_error_rel = if self.momentum_ref_sum > 0.0 {
+            self.momentum_err_sum / self.momentum_ref_sum
+        } else {
+            0.0
+        };
+        let mut matched = 0u64;
+        let mut offset_sum = 0u64;
+        for (pair, tick) in &self.reference_hits {
+            if let Some(split_tick) = self.split_hits.get(pair) {
+                matched += 1;
+                offset_sum += tick.abs_diff(*split_tick);
+            }
+        }
+        let a = &mut self.acc;
+        a.hits_reference = self.reference_hits.len() as u64;
+        a.hits_split = self.split_hits.len() as u64;
+        a.hits_matched = matched;
+        a.hit_recall = (a.hits_reference > 0).then(|| matched as f64 / a.hits_reference as f64);
+        a.hit_precision = (a.hits_split > 0).then(|| matched as f64 / a.hits_split as f64);
+        a.hit_tick_offset_mean = if matched == 0 {
+            0.0
+        } else {
+            offset_sum as f64 / matched as f64
+        };
+        self.acc
+    }
+}

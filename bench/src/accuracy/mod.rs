@@ -1,0 +1,304 @@
+//! Accuracy against a single-world reference, and what it costs.
+//!
+//! A **trial** runs a scene twice side by side in this process, tick for tick: as one world
+//! owning every entity (the reference, [`Part::Reference`]) and split over its clusters in
+//! lock-step on the in-process transport, so both runs are deterministic and any difference
+//! is the split's — proxies, routing delay, hand-offs. After every tick it compares them
+//! ([`Comparison`]) and at the end reports accuracy and cost ([`TrialResult`]).
+//!
+//! A trial's knobs ([`TrialSettings`]) are the ones a user chooses between: proxy mode,
+//! replication interval, observation spread (or proxies for everything), and for the scene's
+//! projectiles their speed and CCD.
+
+mod compare;
+
+use std::time::{Duration, Instant};
+
+use seam_proxy::ProxyMode;
+use serde::Serialize;
+
+use crate::latency::LatencyRecorder;
+use crate::pod::{OpStages, Part, Pod, PodSettings};
+use crate::scene::{Event, Scene};
+pub use compare::{Accuracy, Comparison};
+
+/// How long a lock-step tick may wait for a neighbour's frame before the trial fails.
+const LOCKSTEP_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// The knobs of one trial.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TrialSettings {
+    /// How neighbour entities are modelled.
+    #[serde(serialize_with = "proxy_mode_name")]
+    pub proxy_mode: ProxyMode,
+    /// A replication frame every this many ticks.
+    pub replication_interval: u64,
+    /// Observation spread of every cluster, m (`None`: the scene's); see `interest`.
+    pub spread: Option<f32>,
+    /// `false`: every cluster proxies every neighbour entity wherever it is (no interest
+    /// management).
+    pub interest: bool,
+    /// Speed of the scene's projectiles, m/s (`None`: the scene's), along their direction.
+    pub projectile_speed: Option<f32>,
+    /// CCD on the scene's projectiles (`None`: the scene's).
+    pub projectile_ccd: Option<bool>,
+    /// Ticks (`None`: the scene's).
+    pub ticks: Option<u64>,
+}
+
+fn proxy_mode_name<S: serde::Serializer>(mode: &ProxyMode, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(mode_name(*mode))
+}
+
+/// The name of a proxy mode in tables and CSV.
+pub fn mode_name(mode: ProxyMode) -> &'static str {
+    match mode {
+        ProxyMode::Fixed => "fixed",
+        ProxyMode::KinematicVelocityBased => "kinematic",
+        ProxyMode::Custom => "custom",
+    }
+}
+
+impl Default for TrialSettings {
+    fn default() -> Self {
+        Self {
+            proxy_mode: ProxyMode::Fixed,
+            replication_interval: 1,
+            spread: None,
+            interest: true,
+            projectile_speed: None,
+            projectile_ccd: None,
+            ticks: None,
+        }
+    }
+}
+
+impl TrialSettings {
+    /// The scene as this trial runs it.
+    pub fn apply(&self, mut scene: Scene) -> Scene {
+        for cluster in &mut scene.clusters {
+            if let Some(spread) = self.spread {
+                cluster.spread = spread;
+            }
+            if !self.interest {
+                // Far beyond any scene: every neighbour entity is modelled.
+                cluster.spread = 1.0e6;
+            }
+        }
+        for event in &mut scene.events {
+            if let Event::Projectile { velocity, ccd, .. } = event {
+                if let Some(speed) = self.projectile_speed {
+                    let length = velocity.iter().map(|c| c * c).sum::<f32>().sqrt();
+                    if length > 0.0 {
+                        *velocity = velocity.map(|c| c / length * speed);
+                    }
+                }
+                if let Some(on) = self.projectile_ccd {
+                    *ccd = on;
+                }
+            }
+        }
+        if let Some(speed) = self.projectile_speed {
+            scene.max_speed = scene.max_speed.max(speed * 1.01);
+        }
+        if let Some(ticks) = self.ticks {
+            scene.ticks = ticks;
+        }
+        scene
+    }
+}
+
+/// What it cost.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Cost {
+    /// Median tick time of the split clusters, µs (the median of their medians).
+    pub tick_p50_us: f64,
+    /// Worst p99 tick time of a split cluster, µs.
+    pub tick_p99_us: f64,
+    /// Replication bytes published per tick, all clusters.
+    pub replication_bytes_per_tick: f64,
+    /// Physics-events bytes published per tick, all clusters.
+    pub events_bytes_per_tick: f64,
+    /// Proxies modelled, mean over ticks, all clusters.
+    pub proxies_mean: f64,
+    /// Routed ops applied.
+    pub ops: u64,
+    /// Median delay of a routed op, ticks (issuer's write → owner's apply).
+    pub op_delay_p50_ticks: u64,
+    /// Largest delay of a routed op, ticks.
+    pub op_delay_max_ticks: u64,
+    /// Tick time of the reference world, median, µs.
+    pub reference_tick_p50_us: f64,
+}
+
+/// One trial's settings, accuracy and cost.
+#[derive(Debug, Clone, Serialize)]
+pub struct TrialResult {
+    /// The scene.
+    pub scene: String,
+    /// The knobs.
+    pub settings: TrialSettings,
+    /// Ticks run.
+    pub ticks: u64,
+    /// Accuracy against the reference.
+    pub accuracy: Accuracy,
+    /// Cost.
+    pub cost: Cost,
+}
+
+/// Runs `scene` split and as a reference, tick for tick, and compares them.
+pub fn run_trial(
+    scene: &Scene,
+    settings: &TrialSettings,
+    run_id: &str,
+) -> Result<TrialResult, String> {
+    let scene = settings.apply(scene.clone());
+    let pod_settings = |transport: String| PodSettings {
+        transport,
+        run_id: run_id.to_owned(),
+        proxy_mode: settings.proxy_mode,
+        replication_interval: settings.replication_interval,
+    };
+    let prefix = format!("seam_trial_{}_{run_id}_", std::process::id());
+    let mut reference = Pod::new(
+        &scene,
+        &Part::Reference,
+        &pod_settings(format!("local?prefix={prefix}ref_")),
+    )
+    .map_err(|e| format!("reference: {e}"))?;
+    let split_url = format!("local?prefix={prefix}split_");
+    let mut pods = scene
+        .clusters
+        .iter()
+        .map(|c| {
+            Pod::new(
+                &scene,
+                &Part::Cluster(c.name.clone()),
+                &pod_settings(split_url.clone()),
+            )
+            .map_err(|e| format!("{}: {e}", c.name))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+
+    let mut comparison = Comparison::new(scene.dt);
+    let mut tick_times: Vec<LatencyRecorder> = pods.iter().map(|_| Default::default()).collect();
+    let mut reference_time = LatencyRecorder::default();
+    let mut proxies_sum = 0u64;
+    for _ in 0..scene.ticks {
+        let begun = Instant::now();
+        reference.tick().map_err(|e| format!("reference: {e}"))?;
+        reference_time.record(begun.elapsed().as_nanos() as u64);
+        for (pod, time) in pods.iter_mut().zip(&mut tick_times) {
+            let begun = Instant::now();
+            pod.tick_lockstep(LOCKSTEP_TIMEOUT)
+                .map_err(|e| format!("{}: {e}", pod.name()))?;
+            time.record(begun.elapsed().as_nanos() as u64);
+            proxies_sum += pod.population().1 as u64;
+        }
+        comparison.observe(&reference, &pods);
+    }
+
+    let ticks = scene.ticks.max(1);
+    let mut ops = OpStages::default();
+    let (mut replication_bytes, mut events_bytes) = (0u64, 0u64);
+    for pod in &pods {
+        ops.merge(pod.op_stages());
+        replication_bytes += pod.cluster().stats().replication_bytes;
+        events_bytes += pod.cluster().stats().events_bytes;
+    }
+    let mut p50s: Vec<u64> = tick_times.iter().map(|t| t.summary().p50_ns).collect();
+    p50s.sort_unstable();
+    let ops = ops.summary();
+    Ok(TrialResult {
+        scene: scene.name.clone(),
+        settings: *settings,
+        ticks: scene.ticks,
+        accuracy: comparison.finish(),
+        cost: Cost {
+            tick_p50_us: p50s.get(p50s.len() / 2).copied().unwrap_or(0) as f64 / 1e3,
+            tick_p99_us: tick_times
+                .iter()
+                .map(|t| t.summary().p99_ns)
+                .max()
+                .unwrap_or(0) as f64
+                / 1e3,
+            replication_bytes_per_tick: replication_bytes as f64 / ticks as f64,
+            events_bytes_per_tick: events_bytes as f64 / ticks as f64,
+            proxies_mean: proxies_sum as f64 / ticks as f64,
+            ops: ops.ops,
+            op_delay_p50_ticks: ops.ticks.p50,
+            op_delay_max_ticks: ops.ticks.max,
+            reference_tick_p50_us: reference_time.summary().p50_ns as f64 / 1e3,
+        },
+    })
+}
+
+fn ratio(value: Option<f64>) -> String {
+    value.map_or("-".to_owned(), |v| format!("{v:.3}"))
+}
+
+/// A trial's result as text.
+pub fn table(r: &TrialResult) -> String {
+    let (s, a, c) = (&r.settings, &r.accuracy, &r.cost);
+    format!(
+        "seam compare: {} split in lock-step against one world, {} ticks\n\
+         settings: {} proxies, replication every {} tick(s), spread {}, projectiles {}, \
+         CCD {}\n\n\
+         accuracy\n\
+         \x20 position error       RMS {:.4} m, max {:.4} m\n\
+         \x20 orientation error    RMS {:.3}°, max {:.3}°\n\
+         \x20 projectile hits      {} in the single world, {} split, {} matched: recall {}, \
+         precision {}, mean tick offset {:.2}\n\
+         \x20 momentum error       max {:.4} kg·m/s, mean {:.5} of Σm|v|\n\
+         \x20 hand-offs            {}: largest jump {:.5} m, {:.5} m/s\n\
+         \x20 ownership            {} body-ticks with two owners, {} lost, {} in transit \
+         (hand-off read next tick)\n\n\
+         cost (split run)\n\
+         \x20 tick time            p50 {:.1} µs (median cluster), p99 {:.1} µs (worst); one world \
+         p50 {:.1} µs\n\
+         \x20 bytes per tick       {:.0} replication, {:.0} physics events (all clusters)\n\
+         \x20 proxies              {:.1} on average\n\
+         \x20 routed ops           {}, delay p50 {} tick(s), max {}\n",
+        r.scene,
+        r.ticks,
+        mode_name(s.proxy_mode),
+        s.replication_interval,
+        if s.interest {
+            s.spread
+                .map_or("as in the scene".to_owned(), |v| format!("{v} m"))
+        } else {
+            "everything".to_owned()
+        },
+        s.projectile_speed
+            .map_or("as in the scene".to_owned(), |v| format!("{v} m/s")),
+        s.projectile_ccd
+            .map_or("as in the scene", |v| if v { "on" } else { "off" }),
+        a.position_rms_m,
+        a.position_max_m,
+        a.rotation_rms_deg,
+        a.rotation_max_deg,
+        a.hits_reference,
+        a.hits_split,
+        a.hits_matched,
+        ratio(a.hit_recall),
+        ratio(a.hit_precision),
+        a.hit_tick_offset_mean,
+        a.momentum_error_max,
+        a.momentum_error_rel,
+        a.handoffs,
+        a.handoff_jump_position_m,
+        a.handoff_jump_velocity_mps,
+        a.duplicate_owner_ticks,
+        a.missing_entity_ticks,
+        a.in_transit_ticks,
+        c.tick_p50_us,
+        c.tick_p99_us,
+        c.reference_tick_p50_us,
+        c.replication_bytes_per_tick,
+        c.events_bytes_per_tick,
+        c.proxies_mean,
+        c.ops,
+        c.op_delay_p50_ticks,
+        c.op_delay_max_ticks,
+    )
+}

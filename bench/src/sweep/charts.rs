@@ -1,0 +1,340 @@
+//! The sweep's charts, as SVG and PNG: accuracy against cost with the Pareto front marked, and
+//! projectile hit recall against speed for each proxy mode.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use seam_proxy::ProxyMode;
+
+use crate::accuracy::{TrialResult, mode_name};
+
+/// Where a TrueType font for chart text is looked for (`SEAM_FONT` first).
+const FONT_PATHS: &[&str] = &[
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+];
+
+/// Registers a font for chart text once; plotters needs one to measure and draw labels.
+fn font() -> Result<(), String> {
+    static FONT: OnceLock<Result<(), String>> = OnceLock::new();
+    FONT.get_or_init(|| {
+        let from_env = std::env::var("SEAM_FONT").ok();
+        let candidates = from_env
+            .iter()
+            .map(String::as_str)
+            .chain(FONT_PATHS.iter().copied());
+        for path in candidates {
+            if let Ok(bytes) = std::fs::read(path) {
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                return plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
+                    .map_err(|_| format!("{path} is not a usable TrueType font"));
+            }
+        }
+        Err(format!(
+            "no font for chart text: install fonts-dejavu-core or set SEAM_FONT to a .ttf file \
+             (looked in {})",
+            FONT_PATHS.join(", ")
+        ))
+    })
+    .clone()
+}
+
+/// One chart, drawable on any backend.
+enum Chart<'a> {
+    AccuracyVsCost {
+        scene: String,
+        rows: Vec<&'a TrialResult>,
+    },
+    HitRecall {
+        scene: String,
+        mode: ProxyMode,
+        rows: Vec<&'a TrialResult>,
+    },
+}
+
+impl Chart<'_> {
+    fn draw<DB: DrawingBackend>(&self, area: DrawingArea<DB, Shift>) -> Result<(), String> {
+        match self {
+            Chart::AccuracyVsCost { scene, rows } => accuracy_vs_cost(area, scene, rows),
+            Chart::HitRecall { scene, mode, rows } => hit_recall_vs_speed(area, scene, *mode, rows),
+        }
+    }
+
+    /// Writes `out/name.svg` and `out/name.png`.
+    fn write(&self, out: &Path, name: &str) -> Result<[PathBuf; 2], String> {
+        let svg = out.join(format!("{name}.svg"));
+        self.draw(SVGBackend::new(&svg, SIZE).into_drawing_area())?;
+        let png = out.join(format!("{name}.png"));
+        self.draw(BitMapBackend::new(&png, SIZE).into_drawing_area())?;
+        Ok([svg, png])
+    }
+}
+
+/// Draws every chart into `out`, each as `.svg` and `.png`; returns the files written.
+pub fn draw_all(results: &[TrialResult], out: &Path) -> Result<Vec<PathBuf>, String> {
+    font()?;
+    let mut written = Vec::new();
+    if let Some(scene) = pick_scene(results, |r| u64::from(r.accuracy.position_max_m > 0.0)) {
+        let rows = results.iter().filter(|r| r.scene == scene).collect();
+        written.extend(Chart::AccuracyVsCost { scene, rows }.write(out, "accuracy_vs_cost")?);
+    }
+    if let Some(scene) = pick_scene(results, |r| r.accuracy.hits_reference) {
+        for mode in [ProxyMode::Fixed, ProxyMode::KinematicVelocityBased] {
+            let rows: Vec<&TrialResult> = results
+                .iter()
+                .filter(|r| r.scene == scene && r.settings.proxy_mode == mode)
+                .collect();
+            if rows.is_empty() {
+                continue;
+            }
+            let name = format!("hit_recall_vs_speed_{}", mode_name(mode));
+            let chart = Chart::HitRecall {
+                scene: scene.clone(),
+                mode,
+                rows,
+            };
+            written.extend(chart.write(out, &name)?);
+        }
+    }
+    Ok(written)
+}
+
+const SIZE: (u32, u32) = (960, 640);
+
+/// The scene whose results score highest in total on `informative` (first on ties); `None`
+/// if every score is 0.
+fn pick_scene(
+    results: &[TrialResult],
+    informative: impl Fn(&TrialResult) -> u64,
+) -> Option<String> {
+    let mut best: Option<(u64, &str)> = None;
+    for r in results {
+        let score: u64 = results
+            .iter()
+            .filter(|x| x.scene == r.scene)
+            .map(&informative)
+            .sum();
+        if score > 0 && best.is_none_or(|(n, _)| score > n) {
+            best = Some((score, &r.scene));
+        }
+    }
+    best.map(|(_, scene)| scene.to_owned())
+}
+
+fn failed<E: std::fmt::Display>(e: E) -> String {
+    format!("cannot draw a chart: {e}")
+}
+
+fn color_of(mode: ProxyMode) -> RGBColor {
+    match mode {
+        ProxyMode::Fixed => RGBColor(31, 119, 180),
+        _ => RGBColor(214, 39, 40),
+    }
+}
+
+/// Cost (bytes published per tick) against position error, one point per trial, the Pareto
+/// front (no other trial is both cheaper and more accurate) joined by a line.
+fn accuracy_vs_cost<DB: DrawingBackend>(
+    area: DrawingArea<DB, Shift>,
+    scene: &str,
+    rows: &[&TrialResult],
+) -> Result<(), String> {
+    let point = |r: &TrialResult| {
+        let kb = (r.cost.replication_bytes_per_tick + r.cost.events_bytes_per_tick) / 1000.0;
+        (kb, r.accuracy.position_rms_m.max(1e-6))
+    };
+    let points: Vec<(f64, f64, ProxyMode)> = rows
+        .iter()
+        .map(|r| {
+            let (x, y) = point(r);
+            (x, y, r.settings.proxy_mode)
+        })
+        .collect();
+    let x_max = points.iter().map(|p| p.0).fold(0.0, f64::max) * 1.1 + 1e-3;
+    let y_min = points.iter().map(|p| p.1).fold(f64::INFINITY, f64::min) * 0.5;
+    let y_max = points.iter().map(|p| p.1).fold(0.0, f64::max) * 2.0;
+    let mut front: Vec<(f64, f64)> = points.iter().map(|p| (p.0, p.1)).collect();
+    front.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let mut pareto: Vec<(f64, f64)> = Vec::new();
+    for p in front {
+        if pareto.last().is_none_or(|last| p.1 < last.1) {
+            pareto.push(p);
+        }
+    }
+    area.fill(&WHITE).map_err(failed)?;
+    let mut chart = ChartBuilder::on(&area)
+        .caption(
+            format!("{scene}: accuracy against cost (one point per setting)"),
+            ("sans-serif", 24),
+        )
+        .margin(20)
+        .x_label_area_size(55)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..x_max, (y_min..y_max).log_scale())
+        .map_err(failed)?;
+    chart
+        .configure_mesh()
+        .x_desc("cost: bytes published per tick, all clusters (kB)")
+        .y_desc("position error, RMS over bodies and ticks (m, log)")
+        .axis_desc_style(("sans-serif", 16))
+        .draw()
+        .map_err(failed)?;
+    for mode in [ProxyMode::Fixed, ProxyMode::KinematicVelocityBased] {
+        let color = color_of(mode);
+        chart
+            .draw_series(
+                points
+                    .iter()
+                    .filter(|p| p.2 == mode)
+                    .map(|p| Circle::new((p.0, p.1), 4, color.filled())),
+            )
+            .map_err(failed)?
+            .label(format!("{} proxies", mode_name(mode)))
+            .legend(move |(x, y)| Circle::new((x, y), 4, color.filled()));
+    }
+    chart
+        .draw_series(LineSeries::new(
+            pareto.iter().copied(),
+            BLACK.stroke_width(2),
+        ))
+        .map_err(failed)?
+        .label("Pareto front")
+        .legend(|(x, y)| PathElement::new(vec![(x - 10, y), (x + 10, y)], BLACK.stroke_width(2)));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(("sans-serif", 16))
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()
+        .map_err(failed)?;
+    area.present().map_err(failed)
+}
+
+/// Hit recall against projectile speed, one line per (CCD, replication interval) for the
+/// shortest and longest interval, with proxies for everything if the sweep has that (so the
+/// proxy mode shows, not the interest region), else at the widest spread.
+fn hit_recall_vs_speed<DB: DrawingBackend>(
+    area: DrawingArea<DB, Shift>,
+    scene: &str,
+    mode: ProxyMode,
+    rows: &[&TrialResult],
+) -> Result<(), String> {
+    let spread = if rows.iter().any(|r| r.settings.spread.is_none()) {
+        None
+    } else {
+        rows.iter()
+            .filter_map(|r| r.settings.spread)
+            .max_by(f32::total_cmp)
+    };
+    let intervals: Vec<u64> = rows
+        .iter()
+        .map(|r| r.settings.replication_interval)
+        .collect();
+    let shown = [
+        intervals.iter().copied().min().unwrap_or(1),
+        intervals.iter().copied().max().unwrap_or(1),
+    ];
+    let rows: Vec<&&TrialResult> = rows
+        .iter()
+        .filter(|r| r.settings.spread == spread && shown.contains(&r.settings.replication_interval))
+        .collect();
+    let speeds: Vec<f64> = rows
+        .iter()
+        .filter_map(|r| r.settings.projectile_speed.map(f64::from))
+        .collect();
+    let x_min = speeds
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min)
+        .max(1.0)
+        * 0.8;
+    let x_max = speeds.iter().copied().fold(0.0, f64::max).max(x_min * 2.0) * 1.25;
+    area.fill(&WHITE).map_err(failed)?;
+    let spread_text = spread.map_or("everything".to_owned(), |s| format!("{s} m"));
+    let spread_text = if spread.is_none() {
+        "proxies for everything".to_owned()
+    } else {
+        format!("spread {spread_text}")
+    };
+    let mut chart = ChartBuilder::on(&area)
+        .caption(
+            format!(
+                "{scene}: projectile hits found, {} proxies ({spread_text})",
+                mode_name(mode)
+            ),
+            ("sans-serif", 24),
+        )
+        .margin(20)
+        .x_label_area_size(55)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x_min..x_max).log_scale(), 0.0..1.05)
+        .map_err(failed)?;
+    chart
+        .configure_mesh()
+        .x_desc("projectile speed (m/s, log)")
+        .x_labels(6)
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_desc("hit recall (hits found / hits in the single world)")
+        .axis_desc_style(("sans-serif", 16))
+        .draw()
+        .map_err(failed)?;
+    let mut series: Vec<(bool, u64)> = rows
+        .iter()
+        .map(|r| {
+            (
+                r.settings.projectile_ccd == Some(true),
+                r.settings.replication_interval,
+            )
+        })
+        .collect();
+    series.sort_unstable();
+    series.dedup();
+    for (index, (ccd, interval)) in series.into_iter().enumerate() {
+        let color = Palette99::pick(index).to_rgba();
+        let mut line: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| {
+                r.settings.projectile_ccd == Some(ccd)
+                    && r.settings.replication_interval == interval
+            })
+            .filter_map(|r| {
+                // No hits in the single world: recall is undefined, not a point.
+                Some((
+                    f64::from(r.settings.projectile_speed?),
+                    r.accuracy.hit_recall?,
+                ))
+            })
+            .collect();
+        if line.is_empty() {
+            continue;
+        }
+        line.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let label = format!(
+            "CCD {}, replication every {interval} tick(s)",
+            if ccd { "on" } else { "off" }
+        );
+        let style = color.stroke_width(if ccd { 3 } else { 2 });
+        chart
+            .draw_series(LineSeries::new(line.iter().copied(), style))
+            .map_err(failed)?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x - 10, y), (x + 10, y)], style));
+        chart
+            .draw_series(line.iter().map(|&p| Circle::new(p, 3, color.filled())))
+            .map_err(failed)?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerLeft)
+        .label_font(("sans-serif", 16))
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()
+        .map_err(failed)?;
+    area.present().map_err(failed)
+}

@@ -1,0 +1,102 @@
+//! `sweep.csv`: one row per trial, every setting and metric.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use crate::accuracy::{TrialResult, mode_name};
+
+/// The header, in column order.
+pub(super) const COLUMNS: &[&str] = &[
+    "scene",
+    "proxy_mode",
+    "replication_interval",
+    "spread_m",
+    "interest",
+    "projectile_speed_mps",
+    "projectile_ccd",
+    "ticks",
+    "position_rms_m",
+    "position_max_m",
+    "rotation_rms_deg",
+    "rotation_max_deg",
+    "hits_reference",
+    "hits_split",
+    "hits_matched",
+    "hit_recall",
+    "hit_precision",
+    "hit_tick_offset_mean",
+    "momentum_error_max",
+    "momentum_error_rel",
+    "handoffs",
+    "handoff_jump_position_m",
+    "handoff_jump_velocity_mps",
+    "duplicate_owner_ticks",
+    "missing_entity_ticks",
+    "in_transit_ticks",
+    "tick_p50_us",
+    "tick_p99_us",
+    "reference_tick_p50_us",
+    "replication_bytes_per_tick",
+    "events_bytes_per_tick",
+    "proxies_mean",
+    "ops",
+    "op_delay_p50_ticks",
+    "op_delay_max_ticks",
+];
+
+/// One row.
+pub(super) fn row(r: &TrialResult) -> String {
+    let (s, a, c) = (&r.settings, &r.accuracy, &r.cost);
+    let mut out = String::new();
+    let fields: Vec<String> = vec![
+        r.scene.clone(),
+        mode_name(s.proxy_mode).to_owned(),
+        s.replication_interval.to_string(),
+        s.spread.map_or("everything".to_owned(), |v| v.to_string()),
+        s.interest.to_string(),
+        s.projectile_speed.map_or(String::new(), |v| v.to_string()),
+        s.projectile_ccd.map_or(String::new(), |v| v.to_string()),
+        r.ticks.to_string(),
+        format!("{:.6}", a.position_rms_m),
+        format!("{:.6}", a.position_max_m),
+        format!("{:.4}", a.rotation_rms_deg),
+        format!("{:.4}", a.rotation_max_deg),
+        a.hits_reference.to_string(),
+        a.hits_split.to_string(),
+        a.hits_matched.to_string(),
+        a.hit_recall.map_or(String::new(), |v| format!("{v:.4}")),
+        a.hit_precision.map_or(String::new(), |v| format!("{v:.4}")),
+        format!("{:.3}", a.hit_tick_offset_mean),
+        format!("{:.4}", a.momentum_error_max),
+        format!("{:.5}", a.momentum_error_rel),
+        a.handoffs.to_string(),
+        format!("{:.6}", a.handoff_jump_position_m),
+        format!("{:.6}", a.handoff_jump_velocity_mps),
+        a.duplicate_owner_ticks.to_string(),
+        a.missing_entity_ticks.to_string(),
+        a.in_transit_ticks.to_string(),
+        format!("{:.1}", c.tick_p50_us),
+        format!("{:.1}", c.tick_p99_us),
+        format!("{:.1}", c.reference_tick_p50_us),
+        format!("{:.1}", c.replication_bytes_per_tick),
+        format!("{:.1}", c.events_bytes_per_tick),
+        format!("{:.2}", c.proxies_mean),
+        c.ops.to_string(),
+        c.op_delay_p50_ticks.to_string(),
+        c.op_delay_max_ticks.to_string(),
+    ];
+    debug_assert_eq!(fields.len(), COLUMNS.len());
+    let _ = write!(out, "{}", fields.join(","));
+    out
+}
+
+/// Writes the header and one row per result.
+pub(super) fn write(results: &[TrialResult], path: &Path) -> Result<(), String> {
+    let mut text = COLUMNS.join(",");
+    text.push('\n');
+    for r in results {
+        text += &row(r);
+        text.push('\n');
+    }
+    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
