@@ -83,7 +83,10 @@ enum Command {
     ///
     /// For each scene, runs one trial (as `seam compare`) per combination of proxy mode (fixed,
     /// kinematic), replication interval (1, 2, 4, 8), projectile speed (10–2 000 m/s),
-    /// projectile CCD (off, on) and observation spread (1, 3, 10 m, everything). Writes
+    /// projectile CCD (off, on) and observation spread (1, 3, 10 m, everything), in lock-step;
+    /// then the transport axis: the scene as free-running pods (`seam run`) on shm and Redis,
+    /// per proxy mode at the shortest and longest interval, compared by hits and final
+    /// positions, with routed-op latency. Writes
     /// OUT/sweep.csv (one row per trial, every metric) and, as SVG and PNG,
     /// OUT/accuracy_vs_cost (Pareto front marked) and OUT/hit_recall_vs_speed_<mode>.
     Sweep {
@@ -97,6 +100,14 @@ enum Command {
         /// Ticks per trial (default: each scene's).
         #[arg(long)]
         ticks: Option<u64>,
+        /// Transports for the free-running pods of the transport axis, comma separated
+        /// (`redis` alone means redis://127.0.0.1:6379; one that cannot be opened is left out
+        /// with a notice; `none` skips the axis).
+        #[arg(long, default_value = "shm,redis", value_delimiter = ',')]
+        transport: Vec<String>,
+        /// Ticks per second of the free-running pods.
+        #[arg(long, default_value_t = 240.0)]
+        rate: f64,
         /// Where to write the CSV and the charts.
         #[arg(long, default_value = "sweep")]
         out: std::path::PathBuf,
@@ -260,6 +271,8 @@ fn sweep(
     scenes: Vec<std::path::PathBuf>,
     quick: bool,
     ticks: Option<u64>,
+    transports: Vec<String>,
+    rate: f64,
     out: &std::path::Path,
 ) -> Result<(), String> {
     let paths = if scenes.is_empty() {
@@ -277,13 +290,29 @@ fn sweep(
                 .map_err(|e| format!("{e} (run from the repository root, or pass --scene FILE)"))
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let grid = if quick {
+    let scenes: Vec<_> = paths.into_iter().zip(scenes).collect();
+    let mut grid = if quick {
         seam_bench::sweep::SweepGrid::quick()
     } else {
         seam_bench::sweep::SweepGrid::full()
     };
+    for transport in transports
+        .iter()
+        .filter(|t| t.as_str() != "none")
+        .map(|t| expand_transport(t))
+    {
+        match seam_transport::open(&transport) {
+            Ok(_) => grid.transports.push(transport),
+            Err(e) => eprintln!("seam sweep: leaving out the transport axis on {e}"),
+        }
+    }
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find seam itself: {e}"))?;
+    let free = accuracy::FreeRunning {
+        rate,
+        node_command: vec![exe.into(), "node".into()],
+    };
     let started = std::time::Instant::now();
-    let results = seam_bench::sweep::run(&scenes, &grid, ticks, |done, total, line| {
+    let results = seam_bench::sweep::run(&scenes, &grid, ticks, &free, |done, total, line| {
         let width = 30;
         let filled = done * width / total.max(1);
         eprintln!(
@@ -407,8 +436,10 @@ fn main() -> ExitCode {
             scenes,
             quick,
             ticks,
+            transport,
+            rate,
             out,
-        } => sweep(scenes, quick, ticks, &out),
+        } => sweep(scenes, quick, ticks, transport, rate, &out),
         Command::Node(args) => node::stop_flag().and_then(|stop| {
             node::run_node(&args, &stop, &mut std::io::stdout().lock()).map(|_| ())
         }),

@@ -11,6 +11,7 @@
 //! projectiles their speed and CCD.
 
 mod compare;
+mod free;
 
 use std::time::{Duration, Instant};
 
@@ -21,6 +22,7 @@ use crate::latency::LatencyRecorder;
 use crate::pod::{OpStages, Part, Pod, PodSettings};
 use crate::scene::{Event, Scene};
 pub use compare::{Accuracy, Comparison};
+pub use free::{FreeRunning, run_free_trial};
 
 /// How long a lock-step tick may wait for a neighbour's frame before the trial fails.
 const LOCKSTEP_TIMEOUT: Duration = Duration::from_secs(10);
@@ -119,7 +121,8 @@ pub struct Cost {
     pub replication_bytes_per_tick: f64,
     /// Physics-events bytes published per tick, all clusters.
     pub events_bytes_per_tick: f64,
-    /// Proxies modelled, mean over ticks, all clusters.
+    /// Proxies modelled, all clusters: the mean over ticks (lock-step), or the sum of each
+    /// pod's peak (free-running pods).
     pub proxies_mean: f64,
     /// Routed ops applied.
     pub ops: u64,
@@ -129,6 +132,12 @@ pub struct Cost {
     pub op_delay_max_ticks: u64,
     /// Tick time of the reference world, median, µs.
     pub reference_tick_p50_us: f64,
+    /// Whole routed-op latency (issued → applied), p50, µs.
+    pub op_whole_p50_us: f64,
+    /// Whole routed-op latency, p99, µs.
+    pub op_whole_p99_us: f64,
+    /// Transport stage of routed ops (published → received), p50, µs.
+    pub op_transport_p50_us: f64,
 }
 
 /// One trial's settings, accuracy and cost.
@@ -136,6 +145,12 @@ pub struct Cost {
 pub struct TrialResult {
     /// The scene.
     pub scene: String,
+    /// `lockstep` (clusters in this process, in lock-step on the in-process transport) or the
+    /// transport URL of free-running pods (`shm`, `redis://…`).
+    pub transport: String,
+    /// What the position error is taken over: `every tick` (lock-step) or `final tick`
+    /// (free-running pods report where their bodies ended).
+    pub position_basis: &'static str,
     /// The knobs.
     pub settings: TrialSettings,
     /// Ticks run.
@@ -211,6 +226,8 @@ pub fn run_trial(
     let ops = ops.summary();
     Ok(TrialResult {
         scene: scene.name.clone(),
+        transport: "lockstep".to_owned(),
+        position_basis: "every tick",
         settings: *settings,
         ticks: scene.ticks,
         accuracy: comparison.finish(),
@@ -229,6 +246,9 @@ pub fn run_trial(
             op_delay_p50_ticks: ops.ticks.p50,
             op_delay_max_ticks: ops.ticks.max,
             reference_tick_p50_us: reference_time.summary().p50_ns as f64 / 1e3,
+            op_whole_p50_us: ops.whole.p50_ns as f64 / 1e3,
+            op_whole_p99_us: ops.whole.p99_ns as f64 / 1e3,
+            op_transport_p50_us: ops.transport.p50_ns as f64 / 1e3,
         },
     })
 }
@@ -241,11 +261,11 @@ fn ratio(value: Option<f64>) -> String {
 pub fn table(r: &TrialResult) -> String {
     let (s, a, c) = (&r.settings, &r.accuracy, &r.cost);
     format!(
-        "seam compare: {} split in lock-step against one world, {} ticks\n\
+        "seam compare: {} split ({}) against one world, {} ticks\n\
          settings: {} proxies, replication every {} tick(s), spread {}, projectiles {}, \
          CCD {}\n\n\
          accuracy\n\
-         \x20 position error       RMS {:.4} m, max {:.4} m\n\
+         \x20 position error       RMS {:.4} m, max {:.4} m (over {})\n\
          \x20 orientation error    RMS {:.3}°, max {:.3}°\n\
          \x20 projectile hits      {} in the single world, {} split, {} matched: recall {}, \
          precision {}, mean tick offset {:.2}\n\
@@ -258,8 +278,10 @@ pub fn table(r: &TrialResult) -> String {
          p50 {:.1} µs\n\
          \x20 bytes per tick       {:.0} replication, {:.0} physics events (all clusters)\n\
          \x20 proxies              {:.1} on average\n\
-         \x20 routed ops           {}, delay p50 {} tick(s), max {}\n",
+         \x20 routed ops           {}, delay p50 {} tick(s), max {}; whole p50 {:.1} µs, p99 {:.1} µs, \
+         transport p50 {:.1} µs\n",
         r.scene,
+        r.transport,
         r.ticks,
         mode_name(s.proxy_mode),
         s.replication_interval,
@@ -275,6 +297,7 @@ pub fn table(r: &TrialResult) -> String {
             .map_or("as in the scene", |v| if v { "on" } else { "off" }),
         a.position_rms_m,
         a.position_max_m,
+        r.position_basis,
         a.rotation_rms_deg,
         a.rotation_max_deg,
         a.hits_reference,
@@ -300,5 +323,8 @@ pub fn table(r: &TrialResult) -> String {
         c.ops,
         c.op_delay_p50_ticks,
         c.op_delay_max_ticks,
+        c.op_whole_p50_us,
+        c.op_whole_p99_us,
+        c.op_transport_p50_us,
     )
 }

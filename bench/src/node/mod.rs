@@ -212,6 +212,12 @@ pub fn run_node(
         },
         events: pod.event_counts(),
         ops: pod.op_stages().clone(),
+        projectile_hits: pod
+            .projectile_hits()
+            .iter()
+            .map(|(&pair, &tick)| (pair, tick))
+            .collect(),
+        final_positions: pod.simulated_positions(),
     };
     if let Some(path) = &args.metrics {
         let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;

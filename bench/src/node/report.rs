@@ -3,6 +3,7 @@
 use std::fmt;
 
 use seam_proxy::ClusterStats;
+use seam_sim::wire::EntityId;
 use serde::{Deserialize, Serialize};
 
 use crate::latency::{LatencyRecorder, micros};
@@ -109,4 +110,9 @@ pub struct NodeReport {
     pub events: EventCounts,
     /// Stage times of the routed ops this pod applied.
     pub ops: OpStages,
+    /// Contacts that started between a projectile and anything in this pod's world: pair →
+    /// first tick.
+    pub projectile_hits: Vec<((EntityId, EntityId), u64)>,
+    /// Where each dynamic body this pod simulates ended (projectiles left out).
+    pub final_positions: Vec<(EntityId, [f32; 3])>,
 }

@@ -18,7 +18,7 @@ mod events;
 mod ids;
 mod stages;
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::time::Duration;
 
 use seam_proxy::{Cluster, ClusterConfig, ClusterError, ProxyMode, Region};
@@ -90,6 +90,12 @@ pub struct Pod {
     owned_at_start: usize,
     /// Projectiles this pod fired.
     fired: Vec<EntityId>,
+    /// Every projectile of the scene fired so far, by any cluster (ids are derived, so every
+    /// pod knows them).
+    all_projectiles: HashSet<EntityId>,
+    /// Contacts that started between a projectile and anything, in this world (reported ones
+    /// included), with the first tick each pair was seen.
+    projectile_hits: BTreeMap<(EntityId, EntityId), u64>,
 }
 
 /// Whether two boxes, each grown by its margin, touch or overlap.
@@ -243,6 +249,8 @@ impl Pod {
             stages: OpStages::default(),
             owned_at_start,
             fired: Vec::new(),
+            all_projectiles: HashSet::new(),
+            projectile_hits: BTreeMap::new(),
         })
     }
 
@@ -269,6 +277,31 @@ impl Pod {
     /// Entities this pod spawned at the start.
     pub fn owned_at_start(&self) -> usize {
         self.owned_at_start
+    }
+
+    /// Contacts that started between a projectile (of any cluster) and anything in this world,
+    /// reported ones included: pair (smaller id first) → first tick.
+    pub fn projectile_hits(&self) -> &BTreeMap<(EntityId, EntityId), u64> {
+        &self.projectile_hits
+    }
+
+    /// Whether `id` is a projectile of the scene fired so far.
+    pub fn is_projectile(&self, id: EntityId) -> bool {
+        self.all_projectiles.contains(&id)
+    }
+
+    /// Position of every dynamic body this pod simulates, projectiles left out.
+    pub fn simulated_positions(&self) -> Vec<(EntityId, [f32; 3])> {
+        let me = self.cluster.id();
+        let sim = self.cluster.sim();
+        sim.entities()
+            .filter(|(id, info)| {
+                info.cluster_id == me
+                    && info.role == BodyRole::Dynamic
+                    && !self.all_projectiles.contains(id)
+            })
+            .filter_map(|(id, _)| sim.state(id).map(|s| (id, s.position)))
+            .collect()
     }
 
     /// The projectiles this pod fired, in firing order.
@@ -336,6 +369,10 @@ impl Pod {
         let mut actions = Vec::new();
         for (at, index, shot) in firing {
             let event = &self.events[at].1;
+            if matches!(event, Event::Projectile { .. }) {
+                self.all_projectiles
+                    .insert(self.ids.event_entity(index, shot));
+            }
             match event {
                 Event::Projectile {
                     by,
@@ -404,6 +441,20 @@ impl Pod {
     fn after_tick(&mut self) {
         for timing in self.cluster.take_op_timings() {
             self.stages.record(&timing);
+        }
+        if self.all_projectiles.is_empty() {
+            return;
+        }
+        let tick = self.cluster.sim().tick();
+        for contact in self.cluster.sim().contacts() {
+            let (a, b) = (contact.a, contact.b);
+            if contact.started
+                && (self.all_projectiles.contains(&a) || self.all_projectiles.contains(&b))
+            {
+                self.projectile_hits
+                    .entry((a.min(b), a.max(b)))
+                    .or_insert(tick);
+            }
         }
     }
 }

@@ -96,8 +96,17 @@ impl Pods {
 pub fn run(
     plan: &RunPlan,
     stop: &AtomicBool,
-    mut progress: impl FnMut(&RunProgress<'_>),
+    progress: impl FnMut(&RunProgress<'_>),
 ) -> Result<RunReport, String> {
+    run_pods(plan, stop, progress).map(|(report, _)| report)
+}
+
+/// As [`run`], also returning each pod's own report (hits, final positions, histograms).
+pub fn run_pods(
+    plan: &RunPlan,
+    stop: &AtomicBool,
+    mut progress: impl FnMut(&RunProgress<'_>),
+) -> Result<(RunReport, Vec<NodeReport>), String> {
     let scene = crate::scene::load(&plan.scene)
         .map_err(|e| e.to_string())?
         .stacked(plan.layers)?;
@@ -222,13 +231,14 @@ pub fn run(
     if !problems.is_empty() {
         return Err(problems.join("\n"));
     }
-    Ok(RunReport::new(
+    let report = RunReport::new(
         &scene,
         seam_transport::redact_url(&plan.transport),
         plan,
         wall_s,
         &complete,
-    ))
+    );
+    Ok((report, complete))
 }
 
 fn proxy_mode_name(mode: ProxyModeArg) -> &'static str {

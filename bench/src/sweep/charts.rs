@@ -78,6 +78,14 @@ impl Chart<'_> {
 pub fn draw_all(results: &[TrialResult], out: &Path) -> Result<Vec<PathBuf>, String> {
     font()?;
     let mut written = Vec::new();
+    // The charts compare settings in lock-step, where runs are deterministic; free-running
+    // rows (the transport axis) are in the CSV.
+    let results: Vec<TrialResult> = results
+        .iter()
+        .filter(|r| r.transport == "lockstep")
+        .cloned()
+        .collect();
+    let results = results.as_slice();
     if let Some(scene) = pick_scene(results, |r| u64::from(r.accuracy.position_max_m > 0.0)) {
         let rows = results.iter().filter(|r| r.scene == scene).collect();
         written.extend(Chart::AccuracyVsCost { scene, rows }.write(out, "accuracy_vs_cost")?);

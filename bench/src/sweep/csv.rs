@@ -8,6 +8,8 @@ use crate::accuracy::{TrialResult, mode_name};
 /// The header, in column order.
 pub(super) const COLUMNS: &[&str] = &[
     "scene",
+    "transport",
+    "position_basis",
     "proxy_mode",
     "replication_interval",
     "spread_m",
@@ -42,6 +44,9 @@ pub(super) const COLUMNS: &[&str] = &[
     "ops",
     "op_delay_p50_ticks",
     "op_delay_max_ticks",
+    "op_whole_p50_us",
+    "op_whole_p99_us",
+    "op_transport_p50_us",
 ];
 
 /// One row.
@@ -50,6 +55,8 @@ pub(super) fn row(r: &TrialResult) -> String {
     let mut out = String::new();
     let fields: Vec<String> = vec![
         r.scene.clone(),
+        r.transport.clone(),
+        r.position_basis.to_owned(),
         mode_name(s.proxy_mode).to_owned(),
         s.replication_interval.to_string(),
         s.spread.map_or("everything".to_owned(), |v| v.to_string()),
@@ -84,6 +91,9 @@ pub(super) fn row(r: &TrialResult) -> String {
         c.ops.to_string(),
         c.op_delay_p50_ticks.to_string(),
         c.op_delay_max_ticks.to_string(),
+        format!("{:.1}", c.op_whole_p50_us),
+        format!("{:.1}", c.op_whole_p99_us),
+        format!("{:.1}", c.op_transport_p50_us),
     ];
     debug_assert_eq!(fields.len(), COLUMNS.len());
     let _ = write!(out, "{}", fields.join(","));

@@ -3,8 +3,10 @@
 //! Every point of the grid is one [`run_trial`] (a split run in lock-step against its
 //! single-world reference, in this process) on each scene: proxy mode × replication interval ×
 //! projectile speed × projectile CCD × observation spread (the last value, `everything`, turns
-//! interest management off: every cluster proxies every neighbour entity). Results go to
-//! `sweep.csv`, one row per trial with every metric, and to charts (`charts`).
+//! interest management off: every cluster proxies every neighbour entity). The transport axis
+//! runs the scene as free-running pods (`seam run`) on each transport asked for, per proxy mode
+//! at the shortest and longest interval ([`run_free_trial`]). Results go to `sweep.csv`, one
+//! row per trial with every metric, and to charts (`charts`).
 
 mod charts;
 mod csv;
@@ -13,7 +15,9 @@ use std::path::{Path, PathBuf};
 
 use seam_proxy::ProxyMode;
 
-use crate::accuracy::{TrialResult, TrialSettings, mode_name, run_trial};
+use crate::accuracy::{
+    FreeRunning, TrialResult, TrialSettings, mode_name, run_free_trial, run_trial,
+};
 use crate::scene::Scene;
 pub use charts::draw_all;
 
@@ -30,6 +34,9 @@ pub struct SweepGrid {
     pub ccd: Vec<bool>,
     /// Observation spreads, m; `None` is "everything" (no interest management).
     pub spreads: Vec<Option<f32>>,
+    /// Transports for free-running pods (the transport axis), each run per proxy mode at the
+    /// shortest and longest interval with the scene's own projectiles and spread.
+    pub transports: Vec<String>,
 }
 
 impl SweepGrid {
@@ -41,6 +48,7 @@ impl SweepGrid {
             speeds: vec![10.0, 50.0, 200.0, 500.0, 1000.0, 2000.0],
             ccd: vec![false, true],
             spreads: vec![Some(1.0), Some(3.0), Some(10.0), None],
+            transports: Vec::new(),
         }
     }
 
@@ -52,6 +60,7 @@ impl SweepGrid {
             speeds: vec![50.0, 500.0, 2000.0],
             ccd: vec![false, true],
             spreads: vec![Some(3.0), None],
+            transports: Vec::new(),
         }
     }
 
@@ -81,56 +90,103 @@ impl SweepGrid {
     }
 }
 
-/// One line of progress: where the sweep is and what the last trial gave.
+/// The settings of one trial, in words.
 pub fn describe(settings: &TrialSettings) -> String {
+    let spread = match (settings.interest, settings.spread) {
+        (false, _) => "everything".to_owned(),
+        (true, Some(s)) => format!("{s} m"),
+        (true, None) => "the scene's".to_owned(),
+    };
+    let speed = settings
+        .projectile_speed
+        .map_or("the scene's speed".to_owned(), |v| format!("{v} m/s"));
+    let ccd = match settings.projectile_ccd {
+        Some(true) => "on",
+        Some(false) => "off",
+        None => "as in the scene",
+    };
     format!(
-        "{} every {} tick(s), spread {}, {} m/s, CCD {}",
+        "{} every {} tick(s), spread {spread}, {speed}, CCD {ccd}",
         mode_name(settings.proxy_mode),
         settings.replication_interval,
-        settings
-            .spread
-            .map_or("everything".to_owned(), |s| format!("{s} m")),
-        settings.projectile_speed.unwrap_or(0.0),
-        if settings.projectile_ccd == Some(true) {
-            "on"
-        } else {
-            "off"
-        },
     )
 }
 
-/// Runs every trial of `grid` on every scene, calling `progress(done, total, line)` after
-/// each.
+impl SweepGrid {
+    /// The free-running trials: proxy mode × {shortest, longest interval} × transport.
+    pub fn free_settings(&self, ticks: Option<u64>) -> Vec<(TrialSettings, String)> {
+        let mut intervals = vec![
+            self.intervals.iter().copied().min().unwrap_or(1),
+            self.intervals.iter().copied().max().unwrap_or(1),
+        ];
+        intervals.dedup();
+        let mut all = Vec::new();
+        for transport in &self.transports {
+            for &proxy_mode in &self.proxy_modes {
+                for &replication_interval in &intervals {
+                    let settings = TrialSettings {
+                        proxy_mode,
+                        replication_interval,
+                        ticks,
+                        ..TrialSettings::default()
+                    };
+                    all.push((settings, transport.clone()));
+                }
+            }
+        }
+        all
+    }
+}
+
+/// Runs every trial of `grid` on every scene (`(file, scene)`), calling
+/// `progress(done, total, line)` after each. Free-running trials start pods with `free`.
 pub fn run(
-    scenes: &[Scene],
+    scenes: &[(PathBuf, Scene)],
     grid: &SweepGrid,
     ticks: Option<u64>,
+    free: &FreeRunning,
     mut progress: impl FnMut(usize, usize, &str),
 ) -> Result<Vec<TrialResult>, String> {
     let settings = grid.settings(ticks);
-    let total = settings.len() * scenes.len();
+    let free_settings = grid.free_settings(ticks);
+    let total = (settings.len() + free_settings.len()) * scenes.len();
     let mut results = Vec::with_capacity(total);
-    for scene in scenes {
+    let mut report = |results: &mut Vec<TrialResult>, result: TrialResult| {
+        let line = format!(
+            "{} on {}: {} → position RMS {:.4} m, hit recall {}, {:.0} B/tick, op p50 {:.0} µs",
+            result.scene,
+            seam_transport::redact_url(&result.transport),
+            describe(&result.settings),
+            result.accuracy.position_rms_m,
+            result
+                .accuracy
+                .hit_recall
+                .map_or("-".to_owned(), |v| format!("{v:.2}")),
+            result.cost.replication_bytes_per_tick + result.cost.events_bytes_per_tick,
+            result.cost.op_whole_p50_us,
+        );
+        results.push(result);
+        progress(results.len(), total, &line);
+    };
+    for (path, scene) in scenes {
         for trial in &settings {
-            let run_id = format!("sweep{}", results.len());
+            let run_id = format!("sweep{}x{}", std::process::id(), results.len());
             let result = run_trial(scene, trial, &run_id)
                 .map_err(|e| format!("{}: {}: {e}", scene.name, describe(trial)))?;
-            progress(
-                results.len() + 1,
-                total,
-                &format!(
-                    "{}: {} → position RMS {:.4} m, hit recall {}, {:.0} B/tick",
-                    scene.name,
-                    describe(trial),
-                    result.accuracy.position_rms_m,
-                    result
-                        .accuracy
-                        .hit_recall
-                        .map_or("-".to_owned(), |v| format!("{v:.2}")),
-                    result.cost.replication_bytes_per_tick + result.cost.events_bytes_per_tick
-                ),
-            );
-            results.push(result);
+            report(&mut results, result);
+        }
+        for (trial, transport) in &free_settings {
+            let run_id = format!("sweep{}x{}", std::process::id(), results.len());
+            let result =
+                run_free_trial(path, scene, trial, transport, free, &run_id).map_err(|e| {
+                    format!(
+                        "{} on {}: {}: {e}",
+                        scene.name,
+                        seam_transport::redact_url(transport),
+                        describe(trial)
+                    )
+                })?;
+            report(&mut results, result);
         }
     }
     Ok(results)
