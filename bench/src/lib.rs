@@ -8,8 +8,8 @@
 //! - [`run`] — `seam run`: starts one pod per cluster of a scene, shows progress, merges their
 //!   reports.
 //! - [`node`] — `seam node`: one pod, ticking on a schedule and sleeping on its transport.
-//! - [`accuracy`] — a split run against its single-world reference, tick by tick: accuracy
-//!   and cost of one setting.
+//! - [`accuracy`] — `seam compare`: a split run against its single-world reference, tick by
+//!   tick, accuracy and cost of one setting; and the same for free-running pods.
 //! - [`pod`] — one cluster playing its part of a scene (spawns, events, op stage times).
 //! - [`sweep`] — `seam sweep`: trials over a grid of settings, `sweep.csv` and charts.
 //! - [`ping`] — `seam ping`: one-way latency between two processes over any transport, with
@@ -18,7 +18,9 @@
 //! - [`scene`] — the scene format (`bench/scenes/*.toml`) and its checks.
 //! - [`wait`] — spinning or sleeping for the next message ([`wait::WaitMode`]).
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.
-//! - `benches/bench_transport.rs` — in-process publish → receive per backend (criterion).
+//! - `benches/` — criterion: `bench_transport` (publish → receive per backend), `bench_sim`
+//!   (a tick against raw Rapier, the wire), `bench_proxy` (tick cost with 0 / 1 000 / 10 000
+//!   proxies), `bench_replication` (op batches; 10 000 states end to end).
 
 pub mod accuracy;
 pub mod latency;
