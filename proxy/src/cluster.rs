@@ -43,6 +43,17 @@ impl WriteRouter for Outbox<'_> {
     }
 }
 
+/// What a cluster knows of a neighbour's liveness.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NeighbourStatus {
+    /// No frame from it yet.
+    NotHeard,
+    /// Heard within `neighbour_timeout_ticks`.
+    Alive,
+    /// Silent for longer: its proxies were despawned.
+    Silent,
+}
+
 /// Room for a physics-events frame when advertising (about 80 ops; larger frames grow it).
 const EVENTS_ROOM: usize = 4096;
 
@@ -69,6 +80,8 @@ pub struct Cluster {
     custom_proxy: Option<Box<dyn CustomProxy>>,
     replication_channel: String,
     stats: ClusterStats,
+    /// Each neighbour's status and this cluster's tick when it was last heard from.
+    liveness: IdMap<ClusterId, (NeighbourStatus, u64)>,
 }
 
 impl Cluster {
@@ -93,6 +106,11 @@ impl Cluster {
             gravity: config.gravity,
             max_linear_velocity: config.max_linear_velocity,
         });
+        let liveness = config
+            .neighbours
+            .iter()
+            .map(|&n| (n, (NeighbourStatus::NotHeard, 0)))
+            .collect();
         Ok(Self {
             replication_channel: channels::replication(config.cluster_id),
             config,
@@ -106,6 +124,7 @@ impl Cluster {
             handed: IdMap::default(),
             custom_proxy: None,
             stats: ClusterStats::default(),
+            liveness,
         })
     }
 
@@ -201,18 +220,70 @@ impl Cluster {
         if !self.config.neighbours.contains(&to) {
             return Err(refuse("not a neighbour"));
         }
+        if self.neighbour_status(to) == Some(NeighbourStatus::Silent) {
+            return Err(refuse("the neighbour is taken for dead (silent)"));
+        }
         self.transfers.insert(entity, to);
         Ok(())
     }
 
-    /// One tick using whatever has arrived (free-running pods).
+    /// One tick using whatever has arrived (free-running pods). A neighbour silent for more
+    /// than `neighbour_timeout_ticks` is taken for dead first (see [`NeighbourStatus`]).
     pub fn tick(
         &mut self,
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
         self.drain()?;
+        self.check_liveness();
         let frames = self.inbox.take_all();
         self.run(frames, user)
+    }
+
+    /// What this cluster knows of `neighbour`'s liveness (`None` for a non-neighbour).
+    pub fn neighbour_status(&self, neighbour: ClusterId) -> Option<NeighbourStatus> {
+        self.liveness.get(&neighbour).map(|&(status, _)| status)
+    }
+
+    /// Takes neighbours silent for too long for dead and despawns their proxies.
+    fn check_liveness(&mut self) {
+        let timeout = self.config.neighbour_timeout_ticks;
+        if timeout == 0 {
+            return;
+        }
+        let now = self.sim.tick();
+        let mut lost = Vec::new();
+        for (&neighbour, (status, heard)) in self.liveness.iter_mut() {
+            if *status == NeighbourStatus::Alive && now.saturating_sub(*heard) > timeout {
+                *status = NeighbourStatus::Silent;
+                lost.push(neighbour);
+            }
+        }
+        for neighbour in lost {
+            self.stats.neighbours_lost += 1;
+            let proxies: Vec<EntityId> = self
+                .sim
+                .entities()
+                .filter(|(_, info)| info.cluster_id == neighbour)
+                .map(|(id, _)| id)
+                .collect();
+            for id in proxies {
+                if self.sim.despawn(id).is_ok() {
+                    self.stats.proxies_despawned += 1;
+                }
+            }
+        }
+    }
+
+    /// Notes a frame from `neighbour`.
+    fn heard(&mut self, neighbour: ClusterId) {
+        let now = self.sim.tick();
+        if let Some((status, heard)) = self.liveness.get_mut(&neighbour) {
+            if *status == NeighbourStatus::Silent {
+                self.stats.neighbours_rejoined += 1;
+            }
+            *status = NeighbourStatus::Alive;
+            *heard = now;
+        }
     }
 
     /// One tick in lock-step: waits (up to `timeout`) until every neighbour's frames from the
@@ -282,9 +353,11 @@ impl Cluster {
     fn file(&mut self, frame: Option<Frame>, received_ns: u64) {
         match frame {
             Some(Frame::Replication(frame)) if self.config.neighbours.contains(&frame.from) => {
+                self.heard(frame.from);
                 self.inbox.add_replication(frame)
             }
             Some(Frame::Events(frame)) if self.config.neighbours.contains(&frame.from) => {
+                self.heard(frame.from);
                 self.inbox.add_events(frame, received_ns)
             }
             _ => self.stats.frames_malformed += 1,

@@ -67,10 +67,15 @@ pub struct ClusterConfig {
     pub gravity: [f32; 3],
     /// Transport URL: `shm`, `local` or `redis://…`.
     pub transport: String,
+    /// A neighbour heard from before and silent for more than this many ticks is taken for
+    /// dead: its proxies are despawned and it is counted in `ClusterStats::neighbours_lost`
+    /// (free-running ticks only; lock-step waits for it instead). 0 never gives up.
+    pub neighbour_timeout_ticks: u64,
 }
 
 impl ClusterConfig {
-    /// A cluster observing everything, with Fixed proxies, 60 Hz, replication every tick.
+    /// A cluster observing everything, with Fixed proxies, 60 Hz, replication every tick, and
+    /// neighbours taken for dead after 60 silent ticks.
     pub fn new(cluster_id: ClusterId, neighbours: Vec<ClusterId>, transport: &str) -> Self {
         let sim = seam_sim::SimConfig::new(cluster_id);
         Self {
@@ -84,6 +89,7 @@ impl ClusterConfig {
             max_linear_velocity: sim.max_linear_velocity,
             gravity: sim.gravity,
             transport: transport.to_owned(),
+            neighbour_timeout_ticks: 60,
         }
     }
 }

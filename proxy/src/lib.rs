@@ -95,6 +95,16 @@
 //! dynamic step and the new owner's first are consecutive: at every step exactly one cluster
 //! simulates the entity.
 //!
+//! # Liveness
+//!
+//! A free-running cluster that has heard from a neighbour and then hears nothing for more than
+//! `neighbour_timeout_ticks` takes it for dead ([`NeighbourStatus::Silent`]): it despawns that
+//! neighbour's proxies and counts it in [`ClusterStats::neighbours_lost`]. A frame from it
+//! later makes it alive again (counted in `neighbours_rejoined`), and its entities come back as
+//! proxies from its next replication frame. A hand-off to a neighbour taken for dead is refused.
+//! Its own entities are not adopted (yet): what a dead pod owned is gone from the other worlds
+//! until it returns, and so is an entity handed to it just before it died.
+//!
 //! # Layout
 //!
 //! - `cluster` — [`Cluster`]: the tick, reconcile, routing, contacts, publish.
@@ -118,7 +128,7 @@ mod stats;
 
 pub use channels::{physics_events, replication};
 pub use clock::{OpTiming, monotonic_ns};
-pub use cluster::{Cluster, MAX_OP_TIMINGS};
+pub use cluster::{Cluster, MAX_OP_TIMINGS, NeighbourStatus};
 pub use config::{ClusterConfig, CustomProxy, ProxyMode, Region};
 pub use error::ClusterError;
 pub use lockstep::lockstep_round;

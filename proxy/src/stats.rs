@@ -36,4 +36,9 @@ pub struct ClusterStats {
     pub replication_bytes: u64,
     /// Bytes of physics-events frames published.
     pub events_bytes: u64,
+    /// Neighbours taken for dead after `neighbour_timeout_ticks` of silence (their proxies
+    /// despawned).
+    pub neighbours_lost: u64,
+    /// Neighbours heard from again after being taken for dead.
+    pub neighbours_rejoined: u64,
 }

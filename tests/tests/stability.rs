@@ -273,12 +273,8 @@ radius = 6.0
 impulse = 12.0
 "#;
     let scene = scene::parse("blast.toml", text).expect("scene");
-    let settings = |transport: String| PodSettings {
-        transport,
-        run_id: format!("blast{}", std::process::id()),
-        proxy_mode: ProxyMode::Fixed,
-        replication_interval: 1,
-    };
+    let settings =
+        |transport: String| PodSettings::new(transport, format!("blast{}", std::process::id()));
     let prefix = format!("local?prefix=seam_blast_{}_", std::process::id());
     let mut reference =
         Pod::new(&scene, &Part::Reference, &settings(format!("{prefix}ref_"))).expect("reference");

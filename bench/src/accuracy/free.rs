@@ -63,10 +63,12 @@ pub fn run_free_trial(
         scene,
         &Part::Reference,
         &PodSettings {
-            transport: format!("local?prefix=seam_free_{}_{run_id}_", std::process::id()),
-            run_id: run_id.to_owned(),
             proxy_mode: settings.proxy_mode,
             replication_interval: settings.replication_interval,
+            ..PodSettings::new(
+                format!("local?prefix=seam_free_{}_{run_id}_", std::process::id()),
+                run_id,
+            )
         },
     )
     .map_err(|e| format!("reference: {e}"))?;

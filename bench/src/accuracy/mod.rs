@@ -169,10 +169,9 @@ pub fn run_trial(
 ) -> Result<TrialResult, String> {
     let scene = settings.apply(scene.clone());
     let pod_settings = |transport: String| PodSettings {
-        transport,
-        run_id: run_id.to_owned(),
         proxy_mode: settings.proxy_mode,
         replication_interval: settings.replication_interval,
+        ..PodSettings::new(transport, run_id)
     };
     let prefix = format!("seam_trial_{}_{run_id}_", std::process::id());
     let mut reference = Pod::new(

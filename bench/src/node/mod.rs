@@ -78,6 +78,10 @@ pub struct NodeArgs {
     /// scene with more entities.
     #[arg(long, default_value_t = 1)]
     pub layers: u32,
+    /// Take a neighbour that was heard from and then stays silent this many ticks for dead:
+    /// despawn its proxies and count it (0: never).
+    #[arg(long, default_value_t = 60)]
+    pub neighbour_timeout_ticks: u64,
     /// Tick 0 at this CLOCK_MONOTONIC time, ns (set by `seam run` so pods tick in phase).
     #[arg(long, hide = true)]
     pub start_at: Option<u64>,
@@ -126,10 +130,10 @@ pub fn run_node(
         _ => Part::Reference,
     };
     let settings = PodSettings {
-        transport: args.transport.clone(),
-        run_id: args.run_id.clone(),
         proxy_mode: args.proxy_mode.into(),
         replication_interval: args.replication_interval,
+        neighbour_timeout_ticks: args.neighbour_timeout_ticks,
+        ..PodSettings::new(&args.transport, &args.run_id)
     };
     let shown = seam_transport::redact_url(&args.transport);
     let mut pod = Pod::new(&scene, &part, &settings)

@@ -50,6 +50,22 @@ pub struct PodSettings {
     pub proxy_mode: ProxyMode,
     /// A replication frame every this many ticks.
     pub replication_interval: u64,
+    /// Ticks of silence after which a neighbour is taken for dead (0: never; see
+    /// `ClusterConfig::neighbour_timeout_ticks`).
+    pub neighbour_timeout_ticks: u64,
+}
+
+impl PodSettings {
+    /// Settings with Fixed proxies, replication every tick and a 60-tick neighbour timeout.
+    pub fn new(transport: impl Into<String>, run_id: impl Into<String>) -> Self {
+        Self {
+            transport: transport.into(),
+            run_id: run_id.into(),
+            proxy_mode: ProxyMode::Fixed,
+            replication_interval: 1,
+            neighbour_timeout_ticks: 60,
+        }
+    }
 }
 
 /// Why a pod could not start.
@@ -190,6 +206,7 @@ impl Pod {
         config.dt = scene.dt;
         config.gravity = scene.gravity;
         config.max_linear_velocity = scene.max_speed;
+        config.neighbour_timeout_ticks = settings.neighbour_timeout_ticks;
         let mut cluster = Cluster::new(config)?;
 
         let mut entities: HashMap<String, Vec<EntityId>> = HashMap::new();

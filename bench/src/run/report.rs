@@ -70,6 +70,8 @@ pub struct Totals {
     pub states_rejected: u64,
     /// Tick overruns.
     pub overruns: u64,
+    /// Neighbours taken for dead by a pod (silent past its timeout).
+    pub neighbours_lost: u64,
 }
 
 /// Everything `seam run` prints.
@@ -125,6 +127,7 @@ impl RunReport {
             totals.malformed += r.transport_stats.malformed_drops + s.frames_malformed;
             totals.states_rejected += s.states_rejected;
             totals.overruns += r.overruns;
+            totals.neighbours_lost += s.neighbours_lost;
             pods.push(PodSummary {
                 cluster: r.cluster.clone(),
                 ticks: r.ticks,
@@ -265,7 +268,8 @@ pub fn table(report: &RunReport) -> String {
     let t = &report.totals;
     out += &format!(
         "\nentities: {} expected (spawned + fired), {} owned at the end; ops routed {}, applied {}, \
-         dropped {}; contacts {} sent, {} received; hand-offs {} out, {} in; overruns {}\n",
+         dropped {}; contacts {} sent, {} received; hand-offs {} out, {} in; overruns {}; \
+         neighbours taken for dead {}\n",
         t.entities_expected,
         t.entities_owned,
         t.ops_routed,
@@ -275,7 +279,8 @@ pub fn table(report: &RunReport) -> String {
         t.contacts_received,
         t.handoffs_out,
         t.handoffs_in,
-        t.overruns
+        t.overruns,
+        t.neighbours_lost
     );
     out
 }

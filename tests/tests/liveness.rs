@@ -1,0 +1,154 @@
+//! Peer liveness: a neighbour that stops publishing is taken for dead after a number of ticks,
+//! its proxies despawned; when it publishes again it rejoins. In one process on the in-process
+//! transport, and with real pods where one is killed with SIGKILL.
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use seam_bench::node::{NodeLine, NodeReport};
+use seam_proxy::{Cluster, ClusterConfig, NeighbourStatus, monotonic_ns};
+use seam_sim::BodyRole;
+use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+use seam_tests::TestContext;
+use seam_transport::Backend;
+
+const TIMEOUT_TICKS: u64 = 10;
+
+fn ball(x: f32) -> EntityState {
+    EntityState {
+        id: EntityId::random(),
+        cluster_id: ClusterId::random(),
+        tick: 0,
+        position: [x, 0.0, 0.0],
+        rotation: [0.0, 0.0, 0.0, 1.0],
+        linvel: [0.0; 3],
+        angvel: [0.0; 3],
+        body: BodyShape {
+            shape: Shape::Ball { radius: 0.5 },
+            density: 100.0,
+            ccd: false,
+        },
+    }
+}
+
+#[test]
+fn a_silent_neighbour_is_dropped_and_rejoins() {
+    let (a, b) = (ClusterId::random(), ClusterId::random());
+    let url = format!("local?prefix=seam_live_{}_", std::process::id());
+    let mut config_b = ClusterConfig::new(b, vec![a], &url);
+    config_b.gravity = [0.0; 3];
+    config_b.neighbour_timeout_ticks = TIMEOUT_TICKS;
+    let mut config_a = ClusterConfig::new(a, vec![b], &url);
+    config_a.gravity = [0.0; 3];
+    let mut cluster_a = Cluster::new(config_a).expect("a");
+    let mut cluster_b = Cluster::new(config_b).expect("b");
+    for x in [1.0, 3.0] {
+        cluster_a
+            .spawn_owned(&ball(x), BodyRole::Dynamic)
+            .expect("spawn");
+    }
+    assert_eq!(
+        cluster_b.neighbour_status(a),
+        Some(NeighbourStatus::NotHeard)
+    );
+    for _ in 0..3 {
+        cluster_a.tick(|_, _| {}).expect("a ticks");
+        cluster_b.tick(|_, _| {}).expect("b ticks");
+    }
+    assert_eq!(cluster_b.sim().len(), 2, "B models A's two balls");
+    assert_eq!(cluster_b.neighbour_status(a), Some(NeighbourStatus::Alive));
+
+    // A stops. B keeps its proxies for the timeout, then drops them.
+    for tick in 1..=TIMEOUT_TICKS + 1 {
+        cluster_b.tick(|_, _| {}).expect("b ticks");
+        let expected = if tick <= TIMEOUT_TICKS { 2 } else { 0 };
+        assert_eq!(cluster_b.sim().len(), expected, "silent for {tick} ticks");
+    }
+    assert_eq!(cluster_b.neighbour_status(a), Some(NeighbourStatus::Silent));
+    assert_eq!(cluster_b.stats().neighbours_lost, 1);
+    // Silence does not count twice, and nothing is handed to a neighbour taken for dead.
+    cluster_b.tick(|_, _| {}).expect("b ticks");
+    assert_eq!(cluster_b.stats().neighbours_lost, 1);
+    let own = ball(-2.0);
+    cluster_b
+        .spawn_owned(&own, BodyRole::Dynamic)
+        .expect("spawn");
+    let refused = cluster_b
+        .transfer_authority(own.id, a)
+        .expect_err("A is taken for dead");
+    assert!(refused.to_string().contains("dead"), "{refused}");
+
+    // A is back: its next frame brings its entities back as proxies.
+    cluster_a.tick(|_, _| {}).expect("a ticks");
+    cluster_b.tick(|_, _| {}).expect("b ticks");
+    assert_eq!(cluster_b.neighbour_status(a), Some(NeighbourStatus::Alive));
+    assert_eq!(cluster_b.stats().neighbours_rejoined, 1);
+    assert_eq!(
+        cluster_b.sim().len(),
+        3,
+        "A's two balls are proxies again, beside B's own"
+    );
+    cluster_b
+        .transfer_authority(own.id, a)
+        .expect("A is alive again: hand-offs to it are allowed");
+}
+
+/// Two `crossfire` pods over shared memory; east is killed with SIGKILL a second in. West keeps
+/// ticking, takes east for dead after its timeout, drops east's proxies, and reports it.
+#[test]
+fn a_killed_pod_is_taken_for_dead_by_its_neighbour() {
+    let Some(ctx) = TestContext::new(Backend::Shm) else {
+        return;
+    };
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/crossfire.toml");
+    let run_id = format!("live{}", std::process::id());
+    let start_at = monotonic_ns() + 500_000_000;
+    let pod = |cluster: &str| {
+        Command::new(env!("CARGO_BIN_EXE_seam-test-node"))
+            .arg(&scene)
+            .args([
+                "--cluster",
+                cluster,
+                "--transport",
+                &ctx.url(),
+                "--run-id",
+                &run_id,
+            ])
+            .args(["--rate", "120", "--ticks", "480", "--quiet"])
+            .args(["--neighbour-timeout-ticks", "30"])
+            .args(["--start-at", &start_at.to_string()])
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("start a pod")
+    };
+    let mut west = pod("west");
+    let mut east = pod("east");
+    std::thread::sleep(Duration::from_millis(1500));
+    east.kill().expect("SIGKILL east");
+    east.wait().expect("east is gone");
+
+    let stdout = west.stdout.take().expect("west's stdout");
+    let mut proxies_seen = 0;
+    let mut report: Option<NodeReport> = None;
+    for line in BufReader::new(stdout).lines() {
+        match serde_json::from_str::<NodeLine>(&line.expect("a line")).expect("a node line") {
+            NodeLine::Progress(p) => proxies_seen = proxies_seen.max(p.proxies),
+            NodeLine::Report(r) => report = Some(*r),
+        }
+    }
+    assert!(west.wait().expect("west ends").success());
+    let report = report.expect("west reports");
+    assert!(
+        proxies_seen > 0,
+        "west modelled east's crates while east lived"
+    );
+    assert_eq!(report.ticks, 480, "west kept ticking");
+    assert_eq!(
+        report.cluster_stats.neighbours_lost, 1,
+        "east taken for dead"
+    );
+    assert_eq!(report.proxies, 0, "east's proxies despawned");
+}
