@@ -350,17 +350,35 @@ impl Cluster {
         Ok(())
     }
 
-    fn file(&mut self, frame: Option<Frame>, received_ns: u64) {
-        match frame {
-            Some(Frame::Replication(frame)) if self.config.neighbours.contains(&frame.from) => {
-                self.heard(frame.from);
-                self.inbox.add_replication(frame)
+    fn file(&mut self, frame: Result<Frame, Rejected>, received_ns: u64) {
+        let kept = match frame {
+            Ok(Frame::Replication(frame)) if self.config.neighbours.contains(&frame.from) => {
+                let from = frame.from;
+                self.inbox.add_replication(frame).then_some(from)
             }
-            Some(Frame::Events(frame)) if self.config.neighbours.contains(&frame.from) => {
-                self.heard(frame.from);
-                self.inbox.add_events(frame, received_ns)
+            Ok(Frame::Events(frame)) if self.config.neighbours.contains(&frame.from) => {
+                let from = frame.from;
+                self.inbox.add_events(frame, received_ns).then_some(from)
             }
-            _ => self.stats.frames_malformed += 1,
+            Ok(_) | Err(Rejected::WrongSender) => {
+                self.stats.frames_wrong_sender += 1;
+                return;
+            }
+            Err(Rejected::Undecodable) => {
+                self.stats.frames_malformed += 1;
+                return;
+            }
+            Err(Rejected::WrongVersion) => {
+                self.stats.frames_wrong_version += 1;
+                return;
+            }
+        };
+        match kept {
+            Some(from) => {
+                self.stats.frames_accepted += 1;
+                self.heard(from);
+            }
+            None => self.stats.frames_duplicate += 1,
         }
     }
 
@@ -398,6 +416,13 @@ impl Cluster {
         let tick = self.sim.tick();
         for (frame, received_ns) in &frames.events {
             for routed in &frame.ops {
+                if let Some(v) = routed.op.vector()
+                    && v.iter().all(|c| c.is_finite())
+                    && !within(v, self.config.max_magnitude)
+                {
+                    self.stats.ops_dropped_absurd += 1;
+                    continue;
+                }
                 match self.sim.info(routed.op.target()) {
                     Some(info) if info.cluster_id == self.config.cluster_id => {
                         match self.sim.apply_op(&routed.op) {
@@ -451,6 +476,10 @@ impl Cluster {
         let (me, from) = (self.config.cluster_id, frame.from);
         let mut listed: IdMap<EntityId, ()> = IdMap::default();
         for state in &frame.states {
+            if !within(state.position, self.config.max_magnitude) {
+                self.stats.states_rejected += 1;
+                continue;
+            }
             let known_owner = self.sim.info(state.id).map(|i| i.cluster_id);
             let outcome = match known_owner {
                 // Only an entity's owner speaks for it: a frame claiming another cluster's
@@ -653,18 +682,43 @@ enum Frame {
     Events(PhysicsEventsFrame),
 }
 
-/// Decodes a received frame; `None` for bytes that are not a frame of the channel's kind, or a
-/// frame whose sender is not the cluster the channel names.
-fn decode_frame(channel: &str, payload: &[u8]) -> Option<Frame> {
-    match channels::parse(channel)? {
-        Channel::Replication(from) => wire::decode::<ReplicationFrame>(payload)
-            .ok()
-            .filter(|f| f.from == from)
-            .map(Frame::Replication),
-        Channel::PhysicsEvents(_) => wire::decode::<PhysicsEventsFrame>(payload)
-            .ok()
-            .map(Frame::Events),
+/// Why a received frame was not taken.
+enum Rejected {
+    /// The bytes are not a frame of the channel's kind.
+    Undecodable,
+    /// A frame of another wire format version.
+    WrongVersion,
+    /// A replication frame whose sender is not the cluster its channel names, or a message on
+    /// a channel that is not one of seam's.
+    WrongSender,
+}
+
+fn rejected(error: wire::WireError) -> Rejected {
+    match error {
+        wire::WireError::Version { .. } => Rejected::WrongVersion,
+        _ => Rejected::Undecodable,
     }
+}
+
+/// Decodes a received frame straight from the received bytes.
+fn decode_frame(channel: &str, payload: &[u8]) -> Result<Frame, Rejected> {
+    match channels::parse(channel).ok_or(Rejected::WrongSender)? {
+        Channel::Replication(from) => {
+            let frame = wire::decode::<ReplicationFrame>(payload).map_err(rejected)?;
+            if frame.from != from {
+                return Err(Rejected::WrongSender);
+            }
+            Ok(Frame::Replication(frame))
+        }
+        Channel::PhysicsEvents(_) => wire::decode::<PhysicsEventsFrame>(payload)
+            .map(Frame::Events)
+            .map_err(rejected),
+    }
+}
+
+/// Whether every component of `v` is within `limit` in magnitude (NaN is not).
+fn within(v: [f32; 3], limit: f32) -> bool {
+    v.iter().all(|c| c.abs() <= limit)
 }
 
 /// Encodes `frame` straight into the transport's buffer (on shm, the loaned sample); returns

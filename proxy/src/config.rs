@@ -71,6 +71,11 @@ pub struct ClusterConfig {
     /// dead: its proxies are despawned and it is counted in `ClusterStats::neighbours_lost`
     /// (free-running ticks only; lock-step waits for it instead). 0 never gives up.
     pub neighbour_timeout_ticks: u64,
+    /// Largest magnitude accepted from another cluster for any coordinate of a replicated
+    /// position or any component of a routed op (metres, m/s, N, N·s): beyond it the state or
+    /// op is dropped and counted, so a peer cannot move a body a light-year away or give it an
+    /// absurd impulse.
+    pub max_magnitude: f32,
 }
 
 impl ClusterConfig {
@@ -90,6 +95,7 @@ impl ClusterConfig {
             gravity: sim.gravity,
             transport: transport.to_owned(),
             neighbour_timeout_ticks: 60,
+            max_magnitude: 1.0e6,
         }
     }
 }

@@ -6,6 +6,7 @@
 //! delivered: the same run gives the same result on every transport.
 
 use std::collections::BTreeMap;
+use std::collections::btree_map::Entry;
 
 use seam_sim::wire::{ClusterId, PhysicsEventsFrame, ReplicationFrame};
 
@@ -25,16 +26,29 @@ pub(crate) struct TickFrames {
 }
 
 impl Inbox {
-    /// Keeps a replication frame; a second one for the same tick and sender replaces the first.
-    pub(crate) fn add_replication(&mut self, frame: ReplicationFrame) {
-        self.replication.insert((frame.tick, frame.from), frame);
+    /// Keeps a replication frame, unless one of the same tick and sender is already kept (a
+    /// sender publishes one per tick: a second is a replay or a forgery, and the first stays).
+    /// Returns whether it was kept.
+    pub(crate) fn add_replication(&mut self, frame: ReplicationFrame) -> bool {
+        match self.replication.entry((frame.tick, frame.from)) {
+            Entry::Vacant(slot) => {
+                slot.insert(frame);
+                true
+            }
+            Entry::Occupied(_) => false,
+        }
     }
 
-    /// Keeps an events frame received at `received_ns` (one per sender and tick, as for
-    /// replication).
-    pub(crate) fn add_events(&mut self, frame: PhysicsEventsFrame, received_ns: u64) {
-        self.events
-            .insert((frame.tick, frame.from), (frame, received_ns));
+    /// Keeps an events frame received at `received_ns`, the first of each sender and tick as
+    /// for replication. Returns whether it was kept.
+    pub(crate) fn add_events(&mut self, frame: PhysicsEventsFrame, received_ns: u64) -> bool {
+        match self.events.entry((frame.tick, frame.from)) {
+            Entry::Vacant(slot) => {
+                slot.insert((frame, received_ns));
+                true
+            }
+            Entry::Occupied(_) => false,
+        }
     }
 
     /// The first of `neighbours` whose frame tagged `tick` is missing, and which kind.

@@ -95,6 +95,16 @@
 //! dynamic step and the new owner's first are consecutive: at every step exactly one cluster
 //! simulates the entity.
 //!
+//! # Untrusted input
+//!
+//! Every received frame is counted once in [`ClusterStats`]: taken (`frames_accepted`), or
+//! refused as undecodable, of another format version, from a sender that is not a neighbour or
+//! not the cluster its channel names, or as a second frame of the same sender and tick (a replay
+//! or forgery; the first is kept). States from a cluster that does not own their entity, with
+//! NaN, or with a coordinate beyond `max_magnitude` are rejected and counted; so are routed ops
+//! with NaN, beyond `max_magnitude`, or for an entity not owned here. None of it panics or
+//! touches the world.
+//!
 //! # Liveness
 //!
 //! A free-running cluster that has heard from a neighbour and then hears nothing for more than

@@ -17,6 +17,8 @@ pub struct ClusterStats {
     pub ops_dropped_not_owner: u64,
     /// Routed writes received with invalid values (NaN, infinity): dropped.
     pub ops_dropped_invalid: u64,
+    /// Routed writes with a value beyond `ClusterConfig::max_magnitude`: dropped.
+    pub ops_dropped_absurd: u64,
     /// Contacts between a local body and a proxy, reported to the proxy's owner.
     pub contacts_sent: u64,
     /// Contacts reported by neighbours, added to this cluster's contact events.
@@ -25,10 +27,18 @@ pub struct ClusterStats {
     pub handoffs_out: u64,
     /// Entities taken over from another cluster.
     pub handoffs_in: u64,
-    /// Received frames that did not decode, or came on a channel that does not match their
-    /// sender.
+    /// Frames taken in (from a neighbour, decoded, first of their sender and tick).
+    pub frames_accepted: u64,
+    /// Received frames that did not decode.
     pub frames_malformed: u64,
-    /// States ignored: sent by a cluster that is not the entity's owner, or invalid.
+    /// Received frames of another wire format version.
+    pub frames_wrong_version: u64,
+    /// Frames whose sender is not a neighbour, or not the cluster their channel names.
+    pub frames_wrong_sender: u64,
+    /// A second frame of the same sender and tick (a replay or a forgery): the first is kept.
+    pub frames_duplicate: u64,
+    /// States ignored: sent by a cluster that is not the entity's owner, invalid, or beyond
+    /// `ClusterConfig::max_magnitude`.
     pub states_rejected: u64,
     /// Op timings not kept because the caller did not take them (see `Cluster::take_op_timings`).
     pub op_timings_dropped: u64,

@@ -64,7 +64,8 @@ pub struct Totals {
     pub handoffs_in: u64,
     /// Messages lost to full receive buffers.
     pub overflow_drops: u64,
-    /// Foreign or corrupted messages, and frames that did not decode.
+    /// Frames refused: foreign or corrupted messages, frames that did not decode, of another
+    /// format version, from a wrong sender, or duplicates.
     pub malformed: u64,
     /// Replicated states ignored.
     pub states_rejected: u64,
@@ -124,7 +125,7 @@ impl RunReport {
             totals.handoffs_out += s.handoffs_out;
             totals.handoffs_in += s.handoffs_in;
             totals.overflow_drops += r.transport_stats.overflow_drops;
-            totals.malformed += r.transport_stats.malformed_drops + s.frames_malformed;
+            totals.malformed += r.transport_stats.malformed_drops + refused(s);
             totals.states_rejected += s.states_rejected;
             totals.overruns += r.overruns;
             totals.neighbours_lost += s.neighbours_lost;
@@ -224,13 +225,13 @@ pub fn table(report: &RunReport) -> String {
             s.handoffs_out,
             s.handoffs_in,
             p.transport_stats.overflow_drops,
-            p.transport_stats.malformed_drops + s.frames_malformed,
+            p.transport_stats.malformed_drops + refused(s),
         );
     }
     out += "tick times in ms; over = ticks longer than the tick period; ops> routed out, ops< \
             applied here, drop = dropped here; cont> contacts with proxies sent to their owner, \
             cont< received; ho> hand-offs out, ho< in; ovfl = messages lost to a full buffer, \
-            bad = malformed\n\n";
+            bad = frames refused (undecodable, other version, wrong sender, duplicate)\n\n";
 
     let o = &report.ops;
     out += &format!("routed ops applied: {}\n", o.ops);
@@ -283,6 +284,11 @@ pub fn table(report: &RunReport) -> String {
         t.neighbours_lost
     );
     out
+}
+
+/// Frames a cluster refused, all reasons.
+fn refused(s: &ClusterStats) -> u64 {
+    s.frames_malformed + s.frames_wrong_version + s.frames_wrong_sender + s.frames_duplicate
 }
 
 fn millis(nanos: u64) -> String {
