@@ -1,12 +1,13 @@
 //! Peer liveness: a neighbour that stops publishing is taken for dead after a number of ticks,
 //! its proxies despawned; when it publishes again it rejoins. In one process on the in-process
-//! transport, and with real pods where one is killed with SIGKILL.
+//! transport, and with real pods where one is killed with SIGKILL or stopped with SIGSTOP.
 
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
+use rustix::process::{Pid, Signal, kill_process};
 use seam_bench::node::{NodeLine, NodeReport};
 use seam_proxy::{Cluster, ClusterConfig, NeighbourStatus, monotonic_ns};
 use seam_sim::BodyRole;
@@ -95,6 +96,83 @@ fn a_silent_neighbour_is_dropped_and_rejoins() {
         .expect("A is alive again: hand-offs to it are allowed");
 }
 
+fn start_pod(scene: &PathBuf, cluster: &str, url: &str, run_id: &str, start_at: u64) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_seam-test-node"))
+        .arg(scene)
+        .args(["--cluster", cluster, "--transport", url, "--run-id", run_id])
+        .args(["--rate", "120", "--ticks", "480", "--quiet"])
+        .args(["--neighbour-timeout-ticks", "30"])
+        .args(["--start-at", &start_at.to_string()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("start a pod")
+}
+
+/// Reads a pod's JSON lines to the end: the most proxies it reported, and its final report.
+fn finish(mut pod: Child) -> (usize, NodeReport) {
+    let stdout = pod.stdout.take().expect("the pod's stdout");
+    let mut proxies_seen = 0;
+    let mut report = None;
+    for line in BufReader::new(stdout).lines() {
+        match serde_json::from_str::<NodeLine>(&line.expect("a line")).expect("a node line") {
+            NodeLine::Progress(p) => proxies_seen = proxies_seen.max(p.proxies),
+            NodeLine::Report(r) => report = Some(*r),
+        }
+    }
+    assert!(pod.wait().expect("the pod ends").success());
+    (proxies_seen, report.expect("the pod reports"))
+}
+
+/// A pod stopped with SIGSTOP for a second costs counted drops, not blocked neighbours: west
+/// keeps its schedule, takes east for dead and sees it rejoin; east's receive buffers overflow
+/// (counted), and after SIGCONT it catches up and runs every tick.
+#[test]
+fn a_stopped_pod_costs_counted_drops_and_catches_up() {
+    let Some(ctx) = TestContext::new(Backend::Shm) else {
+        return;
+    };
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/crossfire.toml");
+    let run_id = format!("stop{}", std::process::id());
+    let start_at = monotonic_ns() + 500_000_000;
+    let west = start_pod(&scene, "west", &ctx.url(), &run_id, start_at);
+    let east = start_pod(&scene, "east", &ctx.url(), &run_id, start_at);
+    std::thread::sleep(Duration::from_millis(1200));
+    let signal = |child: &Child, signal: Signal| {
+        let pid = Pid::from_raw(child.id() as i32).expect("a pid");
+        kill_process(pid, signal).expect("signal");
+    };
+    signal(&east, Signal::STOP);
+    std::thread::sleep(Duration::from_secs(1));
+    signal(&east, Signal::CONT);
+    let (_, west) = finish(west);
+    let (_, east) = finish(east);
+    assert_eq!((west.ticks, east.ticks), (480, 480), "both ran every tick");
+    assert!(
+        west.max_lag_ns < 250_000_000,
+        "west kept its schedule: lag {} ms",
+        west.max_lag_ns / 1_000_000
+    );
+    assert_eq!(
+        west.cluster_stats.neighbours_lost, 1,
+        "west took east for dead"
+    );
+    assert_eq!(
+        west.cluster_stats.neighbours_rejoined, 1,
+        "and saw it rejoin"
+    );
+    assert!(
+        east.transport_stats.overflow_drops > 0,
+        "east's full buffers dropped frames, counted: {:?}",
+        east.transport_stats
+    );
+    assert!(
+        east.max_lag_ns >= 900_000_000,
+        "east was stopped for a second (lag {} ms)",
+        east.max_lag_ns / 1_000_000
+    );
+}
+
 /// Two `crossfire` pods over shared memory; east is killed with SIGKILL a second in. West keeps
 /// ticking, takes east for dead after its timeout, drops east's proxies, and reports it.
 #[test]
@@ -105,42 +183,12 @@ fn a_killed_pod_is_taken_for_dead_by_its_neighbour() {
     let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/crossfire.toml");
     let run_id = format!("live{}", std::process::id());
     let start_at = monotonic_ns() + 500_000_000;
-    let pod = |cluster: &str| {
-        Command::new(env!("CARGO_BIN_EXE_seam-test-node"))
-            .arg(&scene)
-            .args([
-                "--cluster",
-                cluster,
-                "--transport",
-                &ctx.url(),
-                "--run-id",
-                &run_id,
-            ])
-            .args(["--rate", "120", "--ticks", "480", "--quiet"])
-            .args(["--neighbour-timeout-ticks", "30"])
-            .args(["--start-at", &start_at.to_string()])
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .spawn()
-            .expect("start a pod")
-    };
-    let mut west = pod("west");
-    let mut east = pod("east");
+    let west = start_pod(&scene, "west", &ctx.url(), &run_id, start_at);
+    let mut east = start_pod(&scene, "east", &ctx.url(), &run_id, start_at);
     std::thread::sleep(Duration::from_millis(1500));
     east.kill().expect("SIGKILL east");
     east.wait().expect("east is gone");
-
-    let stdout = west.stdout.take().expect("west's stdout");
-    let mut proxies_seen = 0;
-    let mut report: Option<NodeReport> = None;
-    for line in BufReader::new(stdout).lines() {
-        match serde_json::from_str::<NodeLine>(&line.expect("a line")).expect("a node line") {
-            NodeLine::Progress(p) => proxies_seen = proxies_seen.max(p.proxies),
-            NodeLine::Report(r) => report = Some(*r),
-        }
-    }
-    assert!(west.wait().expect("west ends").success());
-    let report = report.expect("west reports");
+    let (proxies_seen, report) = finish(west);
     assert!(
         proxies_seen > 0,
         "west modelled east's crates while east lived"
