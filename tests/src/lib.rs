@@ -235,3 +235,23 @@ impl Drop for Peer {
         let _ = self.child.wait();
     }
 }
+
+/// A ball at rest at `x` on the x axis, 0.5 m radius, 100 kg/m³, owned by `owner`, with a fresh
+/// entity id.
+pub fn ball_at(x: f32, owner: seam_sim::wire::ClusterId) -> seam_sim::wire::EntityState {
+    use seam_sim::wire::{BodyShape, EntityId, EntityState, Shape};
+    EntityState {
+        id: EntityId::random(),
+        cluster_id: owner,
+        tick: 0,
+        position: [x, 0.0, 0.0],
+        rotation: [0.0, 0.0, 0.0, 1.0],
+        linvel: [0.0; 3],
+        angvel: [0.0; 3],
+        body: BodyShape {
+            shape: Shape::Ball { radius: 0.5 },
+            density: 100.0,
+            ccd: false,
+        },
+    }
+}

@@ -9,10 +9,10 @@ use std::time::{Duration, Instant};
 use seam_proxy::{Cluster, ClusterConfig, ClusterStats, physics_events, replication};
 use seam_sim::BodyRole;
 use seam_sim::wire::{
-    self, BodyShape, ClusterId, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp,
-    ReplicationFrame, RoutedOp, Shape,
+    self, ClusterId, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp, ReplicationFrame,
+    RoutedOp,
 };
-use seam_tests::TestContext;
+use seam_tests::{TestContext, ball_at};
 
 seam_tests::backend_tests!([shm: Shm, redis: Redis], [flood_is_counted_and_changes_nothing]);
 
@@ -35,23 +35,6 @@ impl Noise {
     }
 }
 
-fn ball(x: f32, owner: ClusterId) -> EntityState {
-    EntityState {
-        id: EntityId::random(),
-        cluster_id: owner,
-        tick: 0,
-        position: [x, 0.0, 0.0],
-        rotation: [0.0, 0.0, 0.0, 1.0],
-        linvel: [0.0; 3],
-        angvel: [0.0; 3],
-        body: BodyShape {
-            shape: Shape::Ball { radius: 0.5 },
-            density: 100.0,
-            ccd: false,
-        },
-    }
-}
-
 fn accounted(s: &ClusterStats) -> u64 {
     s.frames_accepted
         + s.frames_malformed
@@ -66,7 +49,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
     config.gravity = [0.0; 3];
     config.neighbour_timeout_ticks = 0;
     let mut cluster = Cluster::new(config).expect("cluster");
-    let mine: Vec<EntityState> = (0..5).map(|i| ball(i as f32 * 3.0, me)).collect();
+    let mine: Vec<EntityState> = (0..5).map(|i| ball_at(i as f32 * 3.0, me)).collect();
     for state in &mine {
         cluster
             .spawn_owned(state, BodyRole::Dynamic)

@@ -11,28 +11,11 @@ use rustix::process::{Pid, Signal, kill_process};
 use seam_bench::node::{NodeLine, NodeReport};
 use seam_proxy::{Cluster, ClusterConfig, NeighbourStatus, monotonic_ns};
 use seam_sim::BodyRole;
-use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
-use seam_tests::TestContext;
+use seam_sim::wire::ClusterId;
+use seam_tests::{TestContext, ball_at};
 use seam_transport::Backend;
 
 const TIMEOUT_TICKS: u64 = 10;
-
-fn ball(x: f32) -> EntityState {
-    EntityState {
-        id: EntityId::random(),
-        cluster_id: ClusterId::random(),
-        tick: 0,
-        position: [x, 0.0, 0.0],
-        rotation: [0.0, 0.0, 0.0, 1.0],
-        linvel: [0.0; 3],
-        angvel: [0.0; 3],
-        body: BodyShape {
-            shape: Shape::Ball { radius: 0.5 },
-            density: 100.0,
-            ccd: false,
-        },
-    }
-}
 
 #[test]
 fn a_silent_neighbour_is_dropped_and_rejoins() {
@@ -47,7 +30,7 @@ fn a_silent_neighbour_is_dropped_and_rejoins() {
     let mut cluster_b = Cluster::new(config_b).expect("b");
     for x in [1.0, 3.0] {
         cluster_a
-            .spawn_owned(&ball(x), BodyRole::Dynamic)
+            .spawn_owned(&ball_at(x, ClusterId::random()), BodyRole::Dynamic)
             .expect("spawn");
     }
     assert_eq!(
@@ -72,7 +55,7 @@ fn a_silent_neighbour_is_dropped_and_rejoins() {
     // Silence does not count twice, and nothing is handed to a neighbour taken for dead.
     cluster_b.tick(|_, _| {}).expect("b ticks");
     assert_eq!(cluster_b.stats().neighbours_lost, 1);
-    let own = ball(-2.0);
+    let own = ball_at(-2.0, ClusterId::random());
     cluster_b
         .spawn_owned(&own, BodyRole::Dynamic)
         .expect("spawn");
