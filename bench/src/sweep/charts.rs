@@ -137,6 +137,21 @@ fn failed<E: std::fmt::Display>(e: E) -> String {
     format!("cannot draw a chart: {e}")
 }
 
+/// The legend both charts draw, at `position`.
+fn draw_legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .label_font(("sans-serif", 16))
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()
+        .map_err(failed)
+}
+
 fn color_of(mode: ProxyMode) -> RGBColor {
     match mode {
         ProxyMode::Fixed => RGBColor(31, 119, 180),
@@ -212,14 +227,7 @@ fn accuracy_vs_cost<DB: DrawingBackend>(
         .map_err(failed)?
         .label("Pareto front")
         .legend(|(x, y)| PathElement::new(vec![(x - 10, y), (x + 10, y)], BLACK.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font(("sans-serif", 16))
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .draw()
-        .map_err(failed)?;
+    draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     area.present().map_err(failed)
 }
 
@@ -336,13 +344,6 @@ fn hit_recall_vs_speed<DB: DrawingBackend>(
             .draw_series(line.iter().map(|&p| Circle::new(p, 3, color.filled())))
             .map_err(failed)?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerLeft)
-        .label_font(("sans-serif", 16))
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .draw()
-        .map_err(failed)?;
+    draw_legend(&mut chart, SeriesLabelPosition::LowerLeft)?;
     area.present().map_err(failed)
 }
