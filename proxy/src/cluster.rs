@@ -12,6 +12,7 @@ use seam_sim::{
 };
 use seam_transport::Transport;
 
+use crate::adoption;
 use crate::channels::{self, Channel};
 use crate::clock::{OpTiming, monotonic_ns};
 use crate::config::{ClusterConfig, CustomProxy, ProxyMode};
@@ -54,6 +55,16 @@ pub enum NeighbourStatus {
     Silent,
 }
 
+/// What a cluster tracks of one neighbour.
+#[derive(Debug, Clone, Copy)]
+struct Peer {
+    status: NeighbourStatus,
+    /// This cluster's tick when it last heard from the neighbour.
+    heard_at: u64,
+    /// The highest tick of the neighbour's frames taken so far.
+    newest_tick: Option<u64>,
+}
+
 /// Room for a physics-events frame when advertising (about 80 ops; larger frames grow it).
 const EVENTS_ROOM: usize = 4096;
 
@@ -80,8 +91,17 @@ pub struct Cluster {
     custom_proxy: Option<Box<dyn CustomProxy>>,
     replication_channel: String,
     stats: ClusterStats,
-    /// Each neighbour's status and this cluster's tick when it was last heard from.
-    liveness: IdMap<ClusterId, (NeighbourStatus, u64)>,
+    /// What this cluster knows of each neighbour's liveness.
+    liveness: IdMap<ClusterId, Peer>,
+    /// The states of each neighbour's last replication frame (kept only with a world map): what
+    /// its entities are adopted from if it dies.
+    last_states: IdMap<ClusterId, Vec<EntityState>>,
+    /// Entities this cluster adopted (or took back from a neighbour that died before taking
+    /// them), with the cluster they came from: if it returns and still claims one, it gets it
+    /// back.
+    adopted: IdMap<EntityId, ClusterId>,
+    /// Whether the transport was connected at the last liveness check.
+    transport_was_up: bool,
 }
 
 impl Cluster {
@@ -109,7 +129,14 @@ impl Cluster {
         let liveness = config
             .neighbours
             .iter()
-            .map(|&n| (n, (NeighbourStatus::NotHeard, 0)))
+            .map(|&n| {
+                let peer = Peer {
+                    status: NeighbourStatus::NotHeard,
+                    heard_at: 0,
+                    newest_tick: None,
+                };
+                (n, peer)
+            })
             .collect();
         Ok(Self {
             replication_channel: channels::replication(config.cluster_id),
@@ -125,6 +152,9 @@ impl Cluster {
             custom_proxy: None,
             stats: ClusterStats::default(),
             liveness,
+            last_states: IdMap::default(),
+            adopted: IdMap::default(),
+            transport_was_up: true,
         })
     }
 
@@ -158,6 +188,13 @@ impl Cluster {
     /// [`ClusterStats::op_timings_dropped`]).
     pub fn take_op_timings(&mut self) -> Vec<OpTiming> {
         std::mem::take(&mut self.op_timings)
+    }
+
+    /// Carries on the world's tick count from `tick`: a pod restarted into a running world
+    /// resumes where the others are, so its frames' ticks stay in line with theirs. Call it
+    /// before the first tick.
+    pub fn resume_at(&mut self, tick: u64) {
+        self.sim.resume_at(tick);
     }
 
     /// Sets the hook that moves proxies in [`ProxyMode::Custom`].
@@ -241,49 +278,128 @@ impl Cluster {
 
     /// What this cluster knows of `neighbour`'s liveness (`None` for a non-neighbour).
     pub fn neighbour_status(&self, neighbour: ClusterId) -> Option<NeighbourStatus> {
-        self.liveness.get(&neighbour).map(|&(status, _)| status)
+        self.liveness.get(&neighbour).map(|peer| peer.status)
     }
 
-    /// Takes neighbours silent for too long for dead and despawns their proxies.
+    /// Takes neighbours silent for too long for dead: adopts what the rule gives this cluster
+    /// of their entities, despawns the rest of their proxies. While this cluster's own
+    /// transport is down nobody can be heard, so nobody is taken for dead: the clock of every
+    /// neighbour restarts when the transport comes back.
     fn check_liveness(&mut self) {
         let timeout = self.config.neighbour_timeout_ticks;
         if timeout == 0 {
             return;
         }
         let now = self.sim.tick();
+        let up = self.transport.is_connected();
+        if !up || !self.transport_was_up {
+            self.transport_was_up = up;
+            for peer in self.liveness.values_mut() {
+                peer.heard_at = now;
+            }
+            return;
+        }
         let mut lost = Vec::new();
-        for (&neighbour, (status, heard)) in self.liveness.iter_mut() {
-            if *status == NeighbourStatus::Alive && now.saturating_sub(*heard) > timeout {
-                *status = NeighbourStatus::Silent;
+        for (&neighbour, peer) in self.liveness.iter_mut() {
+            if peer.status == NeighbourStatus::Alive && now.saturating_sub(peer.heard_at) > timeout
+            {
+                peer.status = NeighbourStatus::Silent;
                 lost.push(neighbour);
             }
         }
         for neighbour in lost {
             self.stats.neighbours_lost += 1;
-            let proxies: Vec<EntityId> = self
-                .sim
-                .entities()
-                .filter(|(_, info)| info.cluster_id == neighbour)
-                .map(|(id, _)| id)
-                .collect();
-            for id in proxies {
-                if self.sim.despawn(id).is_ok() {
-                    self.stats.proxies_despawned += 1;
-                }
+            self.adopt_from(neighbour);
+        }
+    }
+
+    /// The entities of `dead`, taken for dead just now: those the adoption rule gives this
+    /// cluster become its own, from their last replicated state; those handed to `dead` that
+    /// it never took come back; every other proxy of `dead` is despawned (its adopter's frames
+    /// bring it back).
+    fn adopt_from(&mut self, dead: ClusterId) {
+        let me = self.config.cluster_id;
+        let last = self.last_states.swap_remove(&dead).unwrap_or_default();
+        let liveness = &self.liveness;
+        let alive = |c: ClusterId| {
+            c == me
+                || liveness
+                    .get(&c)
+                    .is_none_or(|peer| peer.status != NeighbourStatus::Silent)
+        };
+        for state in last.iter().filter(|s| s.cluster_id == dead) {
+            if adoption::adopter(&self.config.world, dead, state.position, alive) != Some(me) {
+                continue;
+            }
+            let adopted = EntityState {
+                cluster_id: me,
+                ..*state
+            };
+            let done = match self.sim.info(state.id).map(|i| i.cluster_id) {
+                Some(owner) if owner == dead => self
+                    .sim
+                    .set_role(state.id, BodyRole::Dynamic)
+                    .and_then(|()| self.sim.apply_state(&adopted)),
+                None => self.sim.spawn(&adopted, BodyRole::Dynamic),
+                // Already someone else's here: not the dead cluster's to give.
+                Some(_) => continue,
+            };
+            if done.is_ok() {
+                self.adopted.insert(state.id, dead);
+                self.stats.entities_adopted += 1;
+            }
+        }
+        // What is left of `dead` here: entities this cluster handed to it that it never listed
+        // (taken back: this cluster had them last), and proxies of entities another survivor
+        // adopts.
+        let left: Vec<EntityId> = self
+            .sim
+            .entities()
+            .filter(|(_, info)| info.cluster_id == dead)
+            .map(|(id, _)| id)
+            .collect();
+        for id in left {
+            let never_taken =
+                self.handed.swap_remove(&id).is_some() && !last.iter().any(|s| s.id == id);
+            if never_taken
+                && self.sim.set_role(id, BodyRole::Dynamic).is_ok()
+                && self.sim.set_authority(id, me).is_ok()
+            {
+                self.adopted.insert(id, dead);
+                self.stats.handoffs_reclaimed += 1;
+            } else if self.sim.despawn(id).is_ok() {
+                self.stats.proxies_despawned += 1;
             }
         }
     }
 
-    /// Notes a frame from `neighbour`.
-    fn heard(&mut self, neighbour: ClusterId) {
+    /// Notes a frame from `neighbour` tagged `tick`.
+    fn heard(&mut self, neighbour: ClusterId, tick: u64) {
         let now = self.sim.tick();
-        if let Some((status, heard)) = self.liveness.get_mut(&neighbour) {
-            if *status == NeighbourStatus::Silent {
+        if let Some(peer) = self.liveness.get_mut(&neighbour) {
+            if peer.status == NeighbourStatus::Silent {
                 self.stats.neighbours_rejoined += 1;
             }
-            *status = NeighbourStatus::Alive;
-            *heard = now;
+            peer.status = NeighbourStatus::Alive;
+            peer.heard_at = now;
+            peer.newest_tick = Some(peer.newest_tick.map_or(tick, |t| t.max(tick)));
         }
+    }
+
+    /// Whether a frame of `neighbour` tagged `tick` is too far ahead of its frames so far to be
+    /// real: a live neighbour's ticks advance one by one, and a restarted one resumes where the
+    /// world is. Such a frame (a forgery that would otherwise pass for the newest) is dropped.
+    fn implausible(&self, neighbour: ClusterId, tick: u64) -> bool {
+        let window = self.config.neighbour_timeout_ticks.saturating_mul(2);
+        if window == 0 {
+            return false;
+        }
+        self.liveness.get(&neighbour).is_some_and(|peer| {
+            peer.status == NeighbourStatus::Alive
+                && peer
+                    .newest_tick
+                    .is_some_and(|newest| tick > newest.saturating_add(window))
+        })
     }
 
     /// One tick in lock-step: waits (up to `timeout`) until every neighbour's frames from the
@@ -352,12 +468,16 @@ impl Cluster {
 
     fn file(&mut self, frame: Result<Frame, Rejected>, received_ns: u64) {
         let kept = match frame {
+            Ok(frame) if self.implausible(frame.from(), frame.tick()) => {
+                self.stats.frames_implausible += 1;
+                return;
+            }
             Ok(Frame::Replication(frame)) if self.config.neighbours.contains(&frame.from) => {
-                let from = frame.from;
+                let from = (frame.from, frame.tick);
                 self.inbox.add_replication(frame).then_some(from)
             }
             Ok(Frame::Events(frame)) if self.config.neighbours.contains(&frame.from) => {
-                let from = frame.from;
+                let from = (frame.from, frame.tick);
                 self.inbox.add_events(frame, received_ns).then_some(from)
             }
             Ok(_) | Err(Rejected::WrongSender) => {
@@ -374,9 +494,9 @@ impl Cluster {
             }
         };
         match kept {
-            Some(from) => {
+            Some((from, tick)) => {
                 self.stats.frames_accepted += 1;
-                self.heard(from);
+                self.heard(from, tick);
             }
             None => self.stats.frames_duplicate += 1,
         }
@@ -388,8 +508,12 @@ impl Cluster {
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
         // Reconcile the world with what the neighbours replicated.
-        for frame in &frames.replication {
-            self.reconcile(frame);
+        let keep_last = !self.config.world.is_empty();
+        for frame in frames.replication {
+            self.reconcile(&frame);
+            if keep_last {
+                self.last_states.insert(frame.from, frame.states);
+            }
         }
         let reported = frames
             .events
@@ -482,6 +606,21 @@ impl Cluster {
             }
             let known_owner = self.sim.info(state.id).map(|i| i.cluster_id);
             let outcome = match known_owner {
+                // A cluster taken for dead is back and still has an entity adopted from it: it
+                // gets it back by a hand-off (this cluster's next frame), so one of the two
+                // copies stops.
+                Some(owner)
+                    if owner == me
+                        && state.cluster_id == from
+                        && self.adopted.get(&state.id) == Some(&from) =>
+                {
+                    self.adopted.swap_remove(&state.id);
+                    self.transfers.insert(state.id, from);
+                    self.stats.entities_returned += 1;
+                    Ok(())
+                }
+                // Handed back to this cluster, which owns it already: nothing to do.
+                Some(owner) if owner == me && state.cluster_id == me => Ok(()),
                 // Only an entity's owner speaks for it: a frame claiming another cluster's
                 // (or this cluster's) entity is ignored.
                 Some(owner) if owner != from => Err(()),
@@ -643,6 +782,7 @@ impl Cluster {
                 publish_frame(self.transport.as_mut(), &self.replication_channel, &frame)? as u64;
             let role = self.proxy_role();
             for (entity, to) in std::mem::take(&mut self.transfers) {
+                self.adopted.swap_remove(&entity);
                 self.sim.set_authority(entity, to)?;
                 self.sim.set_role(entity, role)?;
                 self.handed.insert(entity, tick);
@@ -651,15 +791,23 @@ impl Cluster {
         }
         for i in 0..self.config.neighbours.len() {
             let neighbour = self.config.neighbours[i];
+            let mut ops = self
+                .outgoing_ops
+                .get_mut(&neighbour)
+                .map(std::mem::take)
+                .unwrap_or_default();
+            if self.neighbour_status(neighbour) == Some(NeighbourStatus::Silent) {
+                // Taken for dead: its entities are adopted or gone, so writes queued for it
+                // (before it was) have no owner there. The empty frame still tells it, should it
+                // be alive after all, that this cluster is.
+                self.stats.ops_dropped_owner_dead += ops.len() as u64;
+                ops.clear();
+            }
             let frame = PhysicsEventsFrame {
                 from: me,
                 tick,
                 published_ns: monotonic_ns(),
-                ops: self
-                    .outgoing_ops
-                    .get_mut(&neighbour)
-                    .map(std::mem::take)
-                    .unwrap_or_default(),
+                ops,
                 contacts: self
                     .outgoing_contacts
                     .get_mut(&neighbour)
@@ -680,6 +828,22 @@ impl Cluster {
 enum Frame {
     Replication(ReplicationFrame),
     Events(PhysicsEventsFrame),
+}
+
+impl Frame {
+    fn from(&self) -> ClusterId {
+        match self {
+            Frame::Replication(f) => f.from,
+            Frame::Events(f) => f.from,
+        }
+    }
+
+    fn tick(&self) -> u64 {
+        match self {
+            Frame::Replication(f) => f.tick,
+            Frame::Events(f) => f.tick,
+        }
+    }
 }
 
 /// Why a received frame was not taken.

@@ -19,6 +19,22 @@ impl Region {
         max: [f32::INFINITY; 3],
     };
 
+    /// Squared distance from `point` to the nearest point of the region (0 inside it).
+    pub fn distance_squared(&self, point: [f32; 3]) -> f32 {
+        (0..3)
+            .map(|i| {
+                let outside = (self.min[i] - point[i])
+                    .max(point[i] - self.max[i])
+                    .max(0.0);
+                if outside.is_finite() {
+                    outside * outside
+                } else {
+                    0.0
+                }
+            })
+            .sum()
+    }
+
     /// Whether `point` lies within the region grown by `margin` on every side.
     pub fn contains_within(&self, point: [f32; 3], margin: f32) -> bool {
         (0..3).all(|i| point[i] >= self.min[i] - margin && point[i] <= self.max[i] + margin)
@@ -76,6 +92,21 @@ pub struct ClusterConfig {
     /// op is dropped and counted, so a peer cannot move a body a light-year away or give it an
     /// absurd impulse.
     pub max_magnitude: f32,
+    /// Every cluster of the world, with its region and neighbours. With it, the survivors of a
+    /// neighbour taken for dead agree, without talking, on which of them adopts each of its
+    /// entities (see `crate::adoption`). Empty: a dead neighbour's entities are not adopted.
+    pub world: Vec<WorldCluster>,
+}
+
+/// One cluster of the world, as every cluster is told it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorldCluster {
+    /// The cluster.
+    pub id: ClusterId,
+    /// The part of the world it observes.
+    pub region: Region,
+    /// The clusters whose entities it sees and writes to.
+    pub neighbours: Vec<ClusterId>,
 }
 
 impl ClusterConfig {
@@ -96,6 +127,7 @@ impl ClusterConfig {
             transport: transport.to_owned(),
             neighbour_timeout_ticks: 60,
             max_magnitude: 1.0e6,
+            world: Vec::new(),
         }
     }
 }

@@ -108,18 +108,49 @@
 //! # Liveness
 //!
 //! A free-running cluster that has heard from a neighbour and then hears nothing for more than
-//! `neighbour_timeout_ticks` takes it for dead ([`NeighbourStatus::Silent`]): it despawns that
-//! neighbour's proxies and counts it in [`ClusterStats::neighbours_lost`]. A frame from it
-//! later makes it alive again (counted in `neighbours_rejoined`), and its entities come back as
-//! proxies from its next replication frame. A hand-off to a neighbour taken for dead is refused.
-//! Its own entities are not adopted (yet): what a dead pod owned is gone from the other worlds
-//! until it returns, and so is an entity handed to it just before it died.
+//! `neighbour_timeout_ticks` takes it for dead ([`NeighbourStatus::Silent`]) and counts it in
+//! [`ClusterStats::neighbours_lost`]. While the cluster's own transport is down
+//! (`Transport::is_connected`, a Redis outage) nobody is taken for dead, and every neighbour's
+//! clock restarts when it comes back. A frame from a silent neighbour makes it alive again
+//! (`neighbours_rejoined`). A hand-off to a neighbour taken for dead is refused; writes queued
+//! for it are dropped and counted (`ops_dropped_owner_dead`). A frame tagged more than twice the
+//! timeout ahead of a live neighbour's frames so far is dropped (`frames_implausible`): it could
+//! only be forged, and would otherwise pass for the newest.
+//!
+//! # Adoption: no entity lost
+//!
+//! With a world map ([`ClusterConfig::world`]: every cluster's region and neighbours), the
+//! entities of a neighbour taken for dead are adopted from its last replication frame, which
+//! every neighbour receives in full and keeps:
+//!
+//! > The adopter of an entity of dead cluster `D` is, among `D`'s neighbours not taken for dead,
+//! > the one whose region is nearest to the entity's last replicated position; a tie goes to the
+//! > smallest cluster id.
+//!
+//! Every survivor computes the same rule, so exactly one adopts each entity (a proxy becomes
+//! the body in place, or the body is spawned) and the others despawn their proxies of `D`
+//! until the adopter's frames bring them back. An entity this cluster handed to `D` that `D`
+//! never listed is taken back. Counted in `entities_adopted` and `handoffs_reclaimed`.
+//!
+//! If `D` was only stalled and returns still claiming its entities, each adopter hands the ones
+//! it adopted from `D` back by a normal hand-off (`entities_returned`). A pod restarted after a
+//! crash starts empty instead and gets entities by hand-off like any cluster.
+//!
+//! Limits: what happened to `D`'s entities after its last frame reached the survivors (the
+//! motion since, writes routed to it, projectiles it fired and never published) is lost, and
+//! that is the only loss; the adopted state is up to `neighbour_timeout_ticks` old. The rule
+//! needs the survivors to agree on `D`'s last frame (true unless `D` died while publishing it)
+//! and on who is alive; a candidate that is not this cluster's neighbour is assumed alive. An
+//! adopted entity handed on to a third cluster before `D` returns is not returned: if `D`
+//! returns still claiming it, two clusters simulate it. Without a world map nothing is adopted
+//! and `D`'s proxies are despawned.
 //!
 //! # Layout
 //!
 //! - `cluster` — [`Cluster`]: the tick, reconcile, routing, contacts, publish.
-//! - `config` — [`ClusterConfig`], [`Region`], [`ProxyMode`], [`CustomProxy`].
+//! - `config` — [`ClusterConfig`], [`Region`], [`WorldCluster`], [`ProxyMode`], [`CustomProxy`].
 //! - `inbox` — frames by sender and step count, for lock-step.
+//! - `adoption` — who adopts a dead neighbour's entities.
 //! - `lockstep` — [`lockstep_round`]: N clusters of one process, tick by tick.
 //! - `clock` — the host monotonic clock ([`monotonic_ns`]) and routed-op stage times
 //!   ([`OpTiming`]: issued, published, received, applied).
@@ -127,6 +158,7 @@
 //! - `stats` — [`ClusterStats`].
 //! - `error` — [`ClusterError`].
 
+mod adoption;
 mod channels;
 mod clock;
 mod cluster;
@@ -139,7 +171,7 @@ mod stats;
 pub use channels::{physics_events, replication};
 pub use clock::{OpTiming, monotonic_ns};
 pub use cluster::{Cluster, MAX_OP_TIMINGS, NeighbourStatus};
-pub use config::{ClusterConfig, CustomProxy, ProxyMode, Region};
+pub use config::{ClusterConfig, CustomProxy, ProxyMode, Region, WorldCluster};
 pub use error::ClusterError;
 pub use lockstep::lockstep_round;
 pub use stats::ClusterStats;

@@ -51,4 +51,16 @@ pub struct ClusterStats {
     pub neighbours_lost: u64,
     /// Neighbours heard from again after being taken for dead.
     pub neighbours_rejoined: u64,
+    /// Entities of a neighbour taken for dead that this cluster adopted (see
+    /// `ClusterConfig::world`).
+    pub entities_adopted: u64,
+    /// Entities handed to a neighbour that was taken for dead before it took them: taken back.
+    pub handoffs_reclaimed: u64,
+    /// Adopted entities handed back to their owner, which returned still claiming them.
+    pub entities_returned: u64,
+    /// Routed writes queued for a neighbour taken for dead: not sent.
+    pub ops_dropped_owner_dead: u64,
+    /// Frames tagged far ahead of their sender's frames so far (more than twice
+    /// `neighbour_timeout_ticks`): dropped as forged.
+    pub frames_implausible: u64,
 }

@@ -300,6 +300,12 @@ impl ClusterSim {
         user(&context, &mut handle)
     }
 
+    /// Sets the tick count to `tick` (a world restarted into a running simulation carries on
+    /// the others' count). The tick is the only thing it changes.
+    pub fn resume_at(&mut self, tick: u64) {
+        self.tick = tick;
+    }
+
     /// Advances the world by one step and collects the contacts that started or stopped.
     pub fn step(&mut self) {
         // The step brings every moved body's bounds up to date itself.

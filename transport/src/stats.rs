@@ -13,4 +13,12 @@ pub struct Stats {
     pub overflow_drops: u64,
     /// Messages that were not seam envelopes (foreign or corrupted bytes on a channel), skipped.
     pub malformed_drops: u64,
+    /// Times the connection to a server was lost (Redis; see its reconnect).
+    pub disconnects: u64,
+    /// Times it was re-established.
+    pub reconnects: u64,
+    /// Time spent disconnected, ns (the current outage included).
+    pub down_ns: u64,
+    /// Publishes dropped because the server was unreachable.
+    pub dropped_while_down: u64,
 }

@@ -103,4 +103,11 @@ pub trait Transport {
 
     /// Largest payload a publish accepts, in bytes.
     fn max_payload(&self) -> usize;
+
+    /// Whether the transport reaches its peers now. A backend that loses its server and
+    /// reconnects on its own (Redis) says `false` while it is down; shared memory is always
+    /// connected.
+    fn is_connected(&self) -> bool {
+        true
+    }
 }

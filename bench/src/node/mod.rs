@@ -85,6 +85,11 @@ pub struct NodeArgs {
     /// Tick 0 at this CLOCK_MONOTONIC time, ns (set by `seam run` so pods tick in phase).
     #[arg(long, hide = true)]
     pub start_at: Option<u64>,
+    /// Rejoin a running world after a crash: start empty (what this cluster owned was adopted
+    /// by its neighbours), fire no scripted events, and with --start-at carry on the world's
+    /// tick count rather than start at 0.
+    #[arg(long)]
+    pub rejoin: bool,
     /// Also write the final report (JSON) to this file.
     #[arg(long)]
     pub metrics: Option<PathBuf>,
@@ -133,6 +138,7 @@ pub fn run_node(
         proxy_mode: args.proxy_mode.into(),
         replication_interval: args.replication_interval,
         neighbour_timeout_ticks: args.neighbour_timeout_ticks,
+        rejoin: args.rejoin,
         ..PodSettings::new(&args.transport, &args.run_id)
     };
     let shown = seam_transport::redact_url(&args.transport);
@@ -143,14 +149,22 @@ pub fn run_node(
 
     // Tick k is due at anchor + k · period.
     let now = monotonic_ns();
-    let anchor = args.start_at.map_or(now, |at| at.max(now));
-    let start_late_ns = args.start_at.map_or(0, |at| now.saturating_sub(at));
+    let mut done = 0;
+    let (anchor, start_late_ns) = match (args.start_at, period_ns) {
+        // A restarted pod joins the world at the tick the schedule is at.
+        (Some(at), Some(period)) if args.rejoin && at < now => {
+            done = ((now - at) / period + 1).min(ticks);
+            pod.resume_at(done);
+            (at, 0)
+        }
+        (Some(at), _) => (at.max(now), now.saturating_sub(at)),
+        (None, _) => (now, 0),
+    };
     let fail = |e: seam_proxy::ClusterError| format!("{}: {shown}: {e}", pod_name(&part));
     let started = Instant::now();
     let mut tick_time = LatencyRecorder::default();
     let (mut overruns, mut max_lag_ns, mut proxies_peak) = (0u64, 0u64, 0usize);
     let mut last_progress = Instant::now();
-    let mut done = 0;
     while done < ticks && !stop.load(Ordering::Relaxed) {
         let due = anchor + period_ns.map_or(0, |p| done * p);
         loop {
@@ -181,11 +195,14 @@ pub fn run_node(
                 overruns,
                 entities_owned: owned,
                 proxies,
+                cluster_stats: pod.cluster().stats(),
+                transport_stats: pod.cluster().transport_stats().into(),
+                rss_kib: rss_kib(),
             };
             if !args.quiet {
                 eprintln!("{progress}");
             }
-            emit(out, &NodeLine::Progress(progress))?;
+            emit(out, &NodeLine::Progress(Box::new(progress)))?;
         }
     }
     let (entities_owned, proxies) = pod.population();
@@ -208,12 +225,7 @@ pub fn run_node(
         proxies,
         proxies_peak: proxies_peak.max(proxies),
         cluster_stats: pod.cluster().stats(),
-        transport_stats: TransportCounts {
-            published: transport.published,
-            received: transport.received,
-            overflow_drops: transport.overflow_drops,
-            malformed_drops: transport.malformed_drops,
-        },
+        transport_stats: transport.into(),
         events: pod.event_counts(),
         ops: pod.op_stages().clone(),
         projectile_hits: pod
@@ -222,6 +234,9 @@ pub fn run_node(
             .map(|(&pair, &tick)| (pair, tick))
             .collect(),
         final_positions: pod.simulated_positions(),
+        owned: pod.owned(),
+        projectiles_seen: pod.projectiles_seen(),
+        rss_kib: rss_kib(),
     };
     if let Some(path) = &args.metrics {
         let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
@@ -230,6 +245,16 @@ pub fn run_node(
     }
     emit(out, &NodeLine::Report(Box::new(report.clone())))?;
     Ok(report)
+}
+
+/// Resident memory of this process, KiB (0 if `/proc` cannot say).
+pub fn rss_kib() -> u64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    status
+        .lines()
+        .find_map(|line| line.strip_prefix("VmRSS:"))
+        .and_then(|rest| rest.split_whitespace().next()?.parse().ok())
+        .unwrap_or(0)
 }
 
 fn pod_name(part: &Part) -> &str {

@@ -14,7 +14,7 @@ use crate::pod::{EventCounts, OpStages};
 #[serde(rename_all = "snake_case")]
 pub enum NodeLine {
     /// Four times a second.
-    Progress(NodeProgress),
+    Progress(Box<NodeProgress>),
     /// Once, at the end.
     Report(Box<NodeReport>),
 }
@@ -36,6 +36,12 @@ pub struct NodeProgress {
     pub entities_owned: usize,
     /// Proxies now.
     pub proxies: usize,
+    /// The cluster's counters so far (a pod that is killed leaves these behind).
+    pub cluster_stats: ClusterStats,
+    /// The transport's counters so far.
+    pub transport_stats: TransportCounts,
+    /// Resident memory of the pod's process, KiB.
+    pub rss_kib: u64,
 }
 
 impl fmt::Display for NodeProgress {
@@ -65,6 +71,29 @@ pub struct TransportCounts {
     pub overflow_drops: u64,
     /// Foreign or corrupted messages skipped.
     pub malformed_drops: u64,
+    /// Connections to a server lost.
+    pub disconnects: u64,
+    /// Connections re-established.
+    pub reconnects: u64,
+    /// Time without a server, ns.
+    pub down_ns: u64,
+    /// Publishes dropped without a server.
+    pub dropped_while_down: u64,
+}
+
+impl From<seam_transport::Stats> for TransportCounts {
+    fn from(s: seam_transport::Stats) -> Self {
+        Self {
+            published: s.published,
+            received: s.received,
+            overflow_drops: s.overflow_drops,
+            malformed_drops: s.malformed_drops,
+            disconnects: s.disconnects,
+            reconnects: s.reconnects,
+            down_ns: s.down_ns,
+            dropped_while_down: s.dropped_while_down,
+        }
+    }
 }
 
 /// Everything one pod measured.
@@ -115,4 +144,11 @@ pub struct NodeReport {
     pub projectile_hits: Vec<((EntityId, EntityId), u64)>,
     /// Where each dynamic body this pod simulates ended (projectiles left out).
     pub final_positions: Vec<(EntityId, [f32; 3])>,
+    /// Every entity this pod owned at the end.
+    pub owned: Vec<EntityId>,
+    /// Every projectile that was ever in this pod's world (owned or as a proxy), as seen every
+    /// few ticks.
+    pub projectiles_seen: Vec<EntityId>,
+    /// Resident memory at the end, KiB.
+    pub rss_kib: u64,
 }

@@ -21,7 +21,7 @@ mod stages;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::time::Duration;
 
-use seam_proxy::{Cluster, ClusterConfig, ClusterError, ProxyMode, Region};
+use seam_proxy::{Cluster, ClusterConfig, ClusterError, ProxyMode, Region, WorldCluster};
 use seam_sim::BodyRole;
 use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
 
@@ -53,6 +53,9 @@ pub struct PodSettings {
     /// Ticks of silence after which a neighbour is taken for dead (0: never; see
     /// `ClusterConfig::neighbour_timeout_ticks`).
     pub neighbour_timeout_ticks: u64,
+    /// Rejoin a running world after a restart: spawn nothing and fire no events (what this
+    /// cluster owned was adopted by its neighbours; its projectiles' ids were used).
+    pub rejoin: bool,
 }
 
 impl PodSettings {
@@ -64,6 +67,7 @@ impl PodSettings {
             proxy_mode: ProxyMode::Fixed,
             replication_interval: 1,
             neighbour_timeout_ticks: 60,
+            rejoin: false,
         }
     }
 }
@@ -112,12 +116,40 @@ pub struct Pod {
     /// Contacts that started between a projectile and anything, in this world (reported ones
     /// included), with the first tick each pair was seen.
     projectile_hits: BTreeMap<(EntityId, EntityId), u64>,
+    /// Projectiles that were in this world at one of the looks every [`SEEN_EVERY`] ticks.
+    projectiles_seen: HashSet<EntityId>,
 }
+
+/// How often a pod looks for projectiles in its world, ticks.
+const SEEN_EVERY: u64 = 10;
 
 /// Whether two boxes, each grown by its margin, touch or overlap.
 fn touch(a: &scene::Region, a_margin: f32, b: &scene::Region, b_margin: f32) -> bool {
     let margin = a_margin + b_margin;
     (0..3).all(|k| a.min[k] <= b.max[k] + margin && b.min[k] <= a.max[k] + margin)
+}
+
+/// Every cluster of `scene` with its region and neighbours, for adoption (see
+/// `ClusterConfig::world`).
+fn world_map(scene: &Scene, ids: &HashMap<String, ClusterId>) -> Vec<WorldCluster> {
+    scene
+        .clusters
+        .iter()
+        .map(|me| WorldCluster {
+            id: ids[&me.name],
+            region: Region {
+                min: me.region.min,
+                max: me.region.max,
+            },
+            neighbours: scene
+                .clusters
+                .iter()
+                .filter(|c| c.name != me.name)
+                .filter(|c| touch(&me.region, me.spread, &c.region, c.spread))
+                .map(|c| ids[&c.name])
+                .collect(),
+        })
+        .collect()
 }
 
 /// The wire shape of a scene shape.
@@ -154,6 +186,7 @@ impl Pod {
             .iter()
             .map(|c| (c.name.clone(), ids.cluster(&c.name)))
             .collect();
+        let world = world_map(scene, &clusters);
         let (name, plays, cluster_id, neighbours, region, spread) = match part {
             Part::Reference => (
                 "reference".to_owned(),
@@ -178,13 +211,11 @@ impl Pod {
                             .collect::<Vec<_>>()
                             .join(", "),
                     })?;
-                let neighbours = scene
-                    .clusters
+                let neighbours = world
                     .iter()
-                    .filter(|c| c.name != me.name)
-                    .filter(|c| touch(&me.region, me.spread, &c.region, c.spread))
-                    .map(|c| clusters[&c.name])
-                    .collect();
+                    .find(|c| c.id == clusters[name])
+                    .map(|c| c.neighbours.clone())
+                    .unwrap_or_default();
                 (
                     name.clone(),
                     vec![name.clone()],
@@ -199,6 +230,9 @@ impl Pod {
             }
         };
         let mut config = ClusterConfig::new(cluster_id, neighbours, &settings.transport);
+        if !matches!(part, Part::Reference) {
+            config.world = world;
+        }
         config.region = region;
         config.spread = spread;
         config.proxy_mode = settings.proxy_mode;
@@ -229,7 +263,7 @@ impl Pod {
                         let id = ids.entity(&entity.name, index);
                         index += 1;
                         copies.push(id);
-                        if !plays.contains(&entity.owner) {
+                        if !plays.contains(&entity.owner) || settings.rejoin {
                             continue;
                         }
                         let offset = [i, j, k].map(|n| n as f32);
@@ -251,7 +285,11 @@ impl Pod {
             }
         }
         cluster.advertise()?;
-        let mut events: Vec<(usize, Event)> = scene.events.iter().cloned().enumerate().collect();
+        let mut events: Vec<(usize, Event)> = if settings.rejoin {
+            Vec::new()
+        } else {
+            scene.events.iter().cloned().enumerate().collect()
+        };
         events.sort_by_key(|(index, event)| (event.tick(), *index));
         Ok(Self {
             cluster,
@@ -268,7 +306,31 @@ impl Pod {
             fired: Vec::new(),
             all_projectiles: HashSet::new(),
             projectile_hits: BTreeMap::new(),
+            projectiles_seen: HashSet::new(),
         })
+    }
+
+    /// Carries on the world's tick count from `tick` (a restarted pod; see
+    /// [`Cluster::resume_at`]).
+    pub fn resume_at(&mut self, tick: u64) {
+        self.cluster.resume_at(tick);
+    }
+
+    /// Every entity this pod owns now.
+    pub fn owned(&self) -> Vec<EntityId> {
+        let me = self.cluster.id();
+        let sim = self.cluster.sim();
+        sim.entities()
+            .filter(|(_, info)| info.cluster_id == me)
+            .map(|(id, _)| id)
+            .collect()
+    }
+
+    /// Projectiles seen in this world so far (see [`NodeReport::projectiles_seen`]).
+    ///
+    /// [`NodeReport::projectiles_seen`]: crate::node::NodeReport::projectiles_seen
+    pub fn projectiles_seen(&self) -> Vec<EntityId> {
+        self.projectiles_seen.iter().copied().collect()
     }
 
     /// The scene cluster this pod plays (`reference` for a reference pod).
@@ -463,6 +525,14 @@ impl Pod {
             return;
         }
         let tick = self.cluster.sim().tick();
+        if tick.is_multiple_of(SEEN_EVERY) {
+            let sim = self.cluster.sim();
+            self.projectiles_seen.extend(
+                sim.entities()
+                    .map(|(id, _)| id)
+                    .filter(|id| self.all_projectiles.contains(id)),
+            );
+        }
         for contact in self.cluster.sim().contacts() {
             let (a, b) = (contact.a, contact.b);
             if contact.started

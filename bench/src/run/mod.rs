@@ -185,7 +185,7 @@ pub fn run_pods(
     let mut signalled = false;
     loop {
         match incoming.recv_timeout(Duration::from_millis(100)) {
-            Ok((index, Ok(NodeLine::Progress(p)))) => latest[index] = Some(p),
+            Ok((index, Ok(NodeLine::Progress(p)))) => latest[index] = Some(*p),
             Ok((index, Ok(NodeLine::Report(r)))) => reports[index] = Some(*r),
             Ok((index, Err(e))) => problems.push(format!("pod {:?}: {e}", pods.0[index].0)),
             Err(mpsc::RecvTimeoutError::Disconnected) => break,

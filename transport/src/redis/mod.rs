@@ -1,9 +1,21 @@
-//! The Redis backend: `redis://[user:password@]host:port[/db][?max_payload=N&timeout_ms=N]`.
+//! The Redis backend: `redis://[user:password@]host:port[/db][?max_payload=N&timeout_ms=N&connect_ms=N&reconnect=0|1]`.
 //!
 //! Two connections per transport, as Redis requires: one made by redis-rs for `PUBLISH`, and one
 //! subscribed socket read without blocking (see [`socket`]). Messages carry the seam envelope as
-//! their first bytes. Redis buffers a slow subscriber's messages on the server and disconnects it
-//! past `client-output-buffer-limit pubsub`; that shows up here as a receive error.
+//! their first bytes.
+//!
+//! # Outages
+//!
+//! When the server goes away (restarted, or it dropped this client, as Redis does to a slow
+//! subscriber past `client-output-buffer-limit pubsub`), the transport does not fail: it counts
+//! a disconnect, drops what is published meanwhile (counted in `Stats::dropped_while_down`),
+//! receives nothing, and tries to reconnect on the next call after a back-off that starts at
+//! 50 ms and doubles up to 250 ms (well inside a neighbour timeout, so pods that reconnect at
+//! slightly different moments do not take each other for dead). Once connected it
+//! authenticates and subscribes again to every channel and pattern it had. [`Transport::is_connected`] says whether it is up; `Stats` has
+//! the disconnects, reconnects and time spent down. A reconnect attempt waits at most
+//! `connect_ms` (default 250 ms). `reconnect=0` in the URL turns this off: the first lost
+//! connection is then an error.
 //! Passwords go to the server only: every address, URL and error this backend prints has them
 //! removed.
 
@@ -29,6 +41,10 @@ pub struct RedisConfig {
     pub max_payload: usize,
     /// Time allowed to connect, and for the server to answer a command.
     pub timeout: Duration,
+    /// Whether a lost connection is re-established (see the module docs) or is an error.
+    pub reconnect: bool,
+    /// Time a reconnect attempt may take.
+    pub connect_timeout: Duration,
 }
 
 impl Default for RedisConfig {
@@ -36,13 +52,90 @@ impl Default for RedisConfig {
         Self {
             max_payload: 4 << 20,
             timeout: Duration::from_secs(5),
+            reconnect: true,
+            connect_timeout: Duration::from_millis(250),
         }
     }
+}
+
+/// First and longest wait between reconnect attempts.
+const BACKOFF: (Duration, Duration) = (Duration::from_millis(50), Duration::from_millis(250));
+
+/// The server, as the URL names it.
+struct Endpoint {
+    client: redis::Client,
+    /// `host:port` or socket path, for messages (never the password).
+    addr: String,
+    username: Option<String>,
+    password: Option<String>,
+}
+
+impl Endpoint {
+    /// `text` with the password replaced by `***`.
+    fn scrub(&self, text: String) -> String {
+        match &self.password {
+            Some(p) if !p.is_empty() => text.replace(p.as_str(), "***"),
+            _ => text,
+        }
+    }
+
+    /// The publishing connection and the subscriber's socket, each given `timeout` to connect.
+    fn connect(
+        &self,
+        timeout: Duration,
+        command_timeout: Duration,
+    ) -> Result<(redis::Connection, Socket), OpenError> {
+        let publisher = self
+            .client
+            .get_connection_with_timeout(timeout)
+            .map_err(|e| {
+                let reason = self.scrub(e.to_string());
+                if e.kind() == redis::ErrorKind::AuthenticationFailed
+                    || reason.contains("WRONGPASS")
+                    || reason.contains("NOAUTH")
+                {
+                    OpenError::AuthenticationFailed {
+                        addr: self.addr.clone(),
+                        reason,
+                    }
+                } else {
+                    OpenError::Unreachable {
+                        addr: self.addr.clone(),
+                        reason,
+                    }
+                }
+            })?;
+        let unreachable = |reason: String| OpenError::Unreachable {
+            addr: self.addr.clone(),
+            reason,
+        };
+        publisher
+            .set_read_timeout(Some(command_timeout))
+            .and_then(|()| publisher.set_write_timeout(Some(command_timeout)))
+            .map_err(|e| unreachable(e.to_string()))?;
+        let info = self.client.get_connection_info();
+        let socket =
+            Socket::connect(info.addr(), timeout).map_err(|e| unreachable(e.to_string()))?;
+        Ok((publisher, socket))
+    }
+}
+
+/// Since when the server has been unreachable, and when to try again.
+struct Outage {
+    since: Instant,
+    next_attempt: Instant,
+    backoff: Duration,
+}
+
+/// Whether a redis-rs error means the connection is gone (not a refusal by the server).
+fn connection_lost(e: &redis::RedisError) -> bool {
+    e.is_io_error() || e.is_connection_dropped() || e.is_connection_refusal() || e.is_timeout()
 }
 
 /// A transport over a Redis server.
 pub struct RedisTransport {
     config: RedisConfig,
+    endpoint: Endpoint,
     /// `host:port` or socket path, for messages (never the password).
     addr: String,
     publisher: redis::Connection,
@@ -56,6 +149,10 @@ pub struct RedisTransport {
     /// Bytes of an oversized reply still to skip.
     discard: usize,
     intake: Intake,
+    /// Subscriptions in force, to renew after a reconnect: (`SUBSCRIBE` or `PSUBSCRIBE`, name).
+    subscriptions: Vec<(&'static str, String)>,
+    /// Set while the server is unreachable.
+    outage: Option<Outage>,
 }
 
 struct EarlyMessage {
@@ -191,6 +288,14 @@ impl RedisTransport {
             match key {
                 "max_payload" => config.max_payload = number()? as usize,
                 "timeout_ms" => config.timeout = Duration::from_millis(number()?),
+                "connect_ms" => config.connect_timeout = Duration::from_millis(number()?),
+                "reconnect" => {
+                    config.reconnect = match value {
+                        "1" | "true" => true,
+                        "0" | "false" => false,
+                        _ => return Err(invalid("`reconnect` must be 0 or 1".to_owned())),
+                    }
+                }
                 _ => passed.push(pair),
             }
         }
@@ -201,44 +306,17 @@ impl RedisTransport {
         };
         let client = redis::Client::open(redis_url.as_str()).map_err(|e| invalid(e.to_string()))?;
         let info = client.get_connection_info().clone();
-        let addr = info.addr().to_string();
-        let password = info.redis_settings().password().map(str::to_owned);
-        let scrub = |text: String| match &password {
-            Some(p) if !p.is_empty() => text.replace(p.as_str(), "***"),
-            _ => text,
+        let endpoint = Endpoint {
+            addr: info.addr().to_string(),
+            username: info.redis_settings().username().map(str::to_owned),
+            password: info.redis_settings().password().map(str::to_owned),
+            client,
         };
-        let publisher = client
-            .get_connection_with_timeout(config.timeout)
-            .map_err(|e| {
-                let reason = scrub(e.to_string());
-                if e.kind() == redis::ErrorKind::AuthenticationFailed
-                    || reason.contains("WRONGPASS")
-                    || reason.contains("NOAUTH")
-                {
-                    OpenError::AuthenticationFailed {
-                        addr: addr.clone(),
-                        reason,
-                    }
-                } else {
-                    OpenError::Unreachable {
-                        addr: addr.clone(),
-                        reason,
-                    }
-                }
-            })?;
-        let unreachable = |reason: String| OpenError::Unreachable {
-            addr: addr.clone(),
-            reason,
-        };
-        publisher
-            .set_read_timeout(Some(config.timeout))
-            .and_then(|()| publisher.set_write_timeout(Some(config.timeout)))
-            .map_err(|e| unreachable(e.to_string()))?;
-        let socket =
-            Socket::connect(info.addr(), config.timeout).map_err(|e| unreachable(e.to_string()))?;
+        let (publisher, socket) = endpoint.connect(config.timeout, config.timeout)?;
         let mut transport = Self {
             config,
-            addr: addr.clone(),
+            addr: endpoint.addr.clone(),
+            endpoint,
             publisher,
             out: Vec::new(),
             publisher_id: random_publisher_id(),
@@ -248,25 +326,112 @@ impl RedisTransport {
             current: None,
             discard: 0,
             intake: Intake::default(),
+            subscriptions: Vec::new(),
+            outage: None,
         };
-        if let Some(password) = &password {
-            let mut auth = redis::cmd("AUTH");
-            if let Some(user) = info.redis_settings().username() {
-                auth.arg(user);
-            }
-            auth.arg(password);
-            transport
-                .command(&auth.get_packed_command(), |reply| match reply {
-                    Reply::ServerError(text) => Some(Err(String::from_utf8_lossy(text).into())),
-                    Reply::Other => Some(Ok(())),
-                    _ => None,
-                })
-                .map_err(|reason| OpenError::AuthenticationFailed {
-                    addr: addr.clone(),
-                    reason: scrub(reason),
-                })?;
-        }
+        transport
+            .authenticate()
+            .map_err(|reason| OpenError::AuthenticationFailed {
+                addr: transport.addr.clone(),
+                reason,
+            })?;
         Ok(transport)
+    }
+
+    /// Authenticates the subscriber's socket, if the URL has a password (redis-rs has done the
+    /// publishing connection).
+    fn authenticate(&mut self) -> Result<(), String> {
+        let Some(password) = self.endpoint.password.clone() else {
+            return Ok(());
+        };
+        let mut auth = redis::cmd("AUTH");
+        if let Some(user) = &self.endpoint.username {
+            auth.arg(user);
+        }
+        auth.arg(&password);
+        self.command(&auth.get_packed_command(), |reply| match reply {
+            Reply::ServerError(text) => Some(Err(String::from_utf8_lossy(text).into())),
+            Reply::Other => Some(Ok(())),
+            _ => None,
+        })
+        .map_err(|reason| self.endpoint.scrub(reason))
+    }
+
+    /// Notes that the server is unreachable (once per outage) and forgets what was half read.
+    fn went_down(&mut self) {
+        if self.outage.is_some() {
+            return;
+        }
+        let now = Instant::now();
+        self.outage = Some(Outage {
+            since: now,
+            next_attempt: now + BACKOFF.0,
+            backoff: BACKOFF.0,
+        });
+        self.intake.stats.disconnects += 1;
+        self.current = None;
+        self.early.clear();
+        self.discard = 0;
+    }
+
+    /// Whether the server is reachable, reconnecting first if it is down and an attempt is due.
+    fn up(&mut self) -> bool {
+        let Some(outage) = &self.outage else {
+            return true;
+        };
+        let now = Instant::now();
+        if now < outage.next_attempt {
+            return false;
+        }
+        match self.reconnect() {
+            Ok(()) => {
+                if let Some(outage) = self.outage.take() {
+                    self.intake.stats.down_ns += outage.since.elapsed().as_nanos() as u64;
+                }
+                self.intake.stats.reconnects += 1;
+                true
+            }
+            Err(_) => {
+                if let Some(outage) = &mut self.outage {
+                    outage.backoff = (outage.backoff * 2).min(BACKOFF.1);
+                    outage.next_attempt = Instant::now() + outage.backoff;
+                }
+                false
+            }
+        }
+    }
+
+    /// Connects again, authenticates and renews every subscription.
+    fn reconnect(&mut self) -> Result<(), String> {
+        let (publisher, socket) = self
+            .endpoint
+            .connect(self.config.connect_timeout, self.config.timeout)
+            .map_err(|e| e.to_string())?;
+        self.publisher = publisher;
+        self.socket = socket;
+        self.current = None;
+        self.early.clear();
+        self.discard = 0;
+        self.authenticate()?;
+        for (command, name) in self.subscriptions.clone() {
+            self.confirm(command, &name)?;
+        }
+        Ok(())
+    }
+
+    /// Sends a (un)subscription and waits for the server to confirm it.
+    fn confirm(&mut self, command: &str, name: &str) -> Result<(), String> {
+        let packed = redis::cmd(command).arg(name).get_packed_command();
+        let expected = command.to_ascii_lowercase();
+        self.command(&packed, |reply| match reply {
+            Reply::Confirmation { kind, channel }
+                if *kind == expected.as_bytes() && *channel == name.as_bytes() =>
+            {
+                Some(Ok(()))
+            }
+            Reply::ServerError(text) => Some(Err(String::from_utf8_lossy(text).into_owned())),
+            _ => None,
+        })
     }
 
     /// Largest reply the subscriber accepts: a message of `max_payload` and its framing.
@@ -348,28 +513,64 @@ impl RedisTransport {
         self.discard -= n;
     }
 
-    fn subscription(&mut self, command: &str, name: &str) -> Result<(), SubscribeError> {
+    /// (Un)subscribes and keeps the list of subscriptions to renew after a reconnect. While
+    /// the server is down the change is only recorded: the reconnect makes it.
+    fn subscription(&mut self, command: &'static str, name: &str) -> Result<(), SubscribeError> {
         validate_channel(name)?;
-        let packed = redis::cmd(command).arg(name).get_packed_command();
-        let expected = command.to_ascii_lowercase();
-        self.command(&packed, |reply| match reply {
-            Reply::Confirmation { kind, channel }
-                if *kind == expected.as_bytes() && *channel == name.as_bytes() =>
-            {
-                Some(Ok(()))
+        let (kind, adds) = match command {
+            "SUBSCRIBE" => ("SUBSCRIBE", true),
+            "PSUBSCRIBE" => ("PSUBSCRIBE", true),
+            "UNSUBSCRIBE" => ("SUBSCRIBE", false),
+            _ => ("PSUBSCRIBE", false),
+        };
+        let recorded = |list: &mut Vec<(&'static str, String)>| {
+            list.retain(|(k, n)| !(*k == kind && n == name));
+            if adds {
+                list.push((kind, name.to_owned()));
             }
-            Reply::ServerError(text) => Some(Err(String::from_utf8_lossy(text).into_owned())),
-            _ => None,
-        })
-        .map_err(|reason| SubscribeError::Disconnected {
-            addr: self.addr.clone(),
-            reason,
-        })
+        };
+        if self.config.reconnect && !self.up() {
+            recorded(&mut self.subscriptions);
+            return Ok(());
+        }
+        match self.confirm(command, name) {
+            Ok(()) => {
+                recorded(&mut self.subscriptions);
+                Ok(())
+            }
+            Err(_) if self.config.reconnect && self.socket_lost() => {
+                self.went_down();
+                recorded(&mut self.subscriptions);
+                Ok(())
+            }
+            Err(reason) => Err(SubscribeError::Disconnected {
+                addr: self.addr.clone(),
+                reason,
+            }),
+        }
+    }
+
+    /// Whether the subscriber's socket is closed (checked after a failed command).
+    fn socket_lost(&mut self) -> bool {
+        self.socket.fill(None, self.frame_limit()).is_err()
     }
 
     /// Moves the next valid message into `self.current`; returns whether there was one.
     fn advance(&mut self) -> Result<bool, ReceiveError> {
+        match self.advance_connected() {
+            Err(_) if self.config.reconnect => {
+                self.went_down();
+                Ok(false)
+            }
+            result => result,
+        }
+    }
+
+    fn advance_connected(&mut self) -> Result<bool, ReceiveError> {
         self.current = None;
+        if self.config.reconnect && !self.up() {
+            return Ok(false);
+        }
         while let Some(mut early) = self.early.pop_front() {
             if let Some(payload) = accept(&mut self.intake, early.channel.as_bytes(), &early.wire) {
                 early.payload = payload;
@@ -495,6 +696,10 @@ impl Transport for RedisTransport {
         if capacity > max {
             return Err(PublishError::PayloadTooLarge { len: capacity, max });
         }
+        if self.config.reconnect && !self.up() {
+            self.intake.stats.dropped_while_down += 1;
+            return Ok(0);
+        }
         self.out.clear();
         self.out.resize(Envelope::WIRE_LEN + capacity, 0);
         let written =
@@ -512,14 +717,24 @@ impl Transport for RedisTransport {
             .arg(channel)
             .arg(&self.out[..])
             .get_packed_command();
-        let reached = self
+        let reached = match self
             .publisher
             .req_packed_command(&packed)
             .and_then(|value| redis::from_redis_value::<usize>(value).map_err(Into::into))
-            .map_err(|e| PublishError::Disconnected {
-                addr: self.addr.clone(),
-                reason: e.to_string(),
-            })?;
+        {
+            Ok(reached) => reached,
+            Err(e) if self.config.reconnect && connection_lost(&e) => {
+                self.went_down();
+                self.intake.stats.dropped_while_down += 1;
+                return Ok(0);
+            }
+            Err(e) => {
+                return Err(PublishError::Disconnected {
+                    addr: self.addr.clone(),
+                    reason: e.to_string(),
+                });
+            }
+        };
         self.intake.stats.published += 1;
         Ok(reached)
     }
@@ -556,18 +771,35 @@ impl Transport for RedisTransport {
             if now >= deadline {
                 return Ok(None);
             }
-            self.socket
-                .fill(Some(deadline - now), frame_limit)
-                .map_err(|e| ReceiveError::Disconnected {
-                    addr: self.addr.clone(),
-                    reason: e.to_string(),
-                })?;
+            if let Some(outage) = &self.outage {
+                // Down: sleep until the next reconnect attempt (or the deadline).
+                let wake = outage.next_attempt.min(deadline);
+                std::thread::sleep(wake.saturating_duration_since(now));
+                continue;
+            }
+            if let Err(e) = self.socket.fill(Some(deadline - now), frame_limit) {
+                if !self.config.reconnect {
+                    return Err(ReceiveError::Disconnected {
+                        addr: self.addr.clone(),
+                        reason: e.to_string(),
+                    });
+                }
+                self.went_down();
+            }
         }
         Ok(self.current_message())
     }
 
     fn stats(&self) -> Stats {
-        self.intake.stats
+        let mut stats = self.intake.stats;
+        if let Some(outage) = &self.outage {
+            stats.down_ns += outage.since.elapsed().as_nanos() as u64;
+        }
+        stats
+    }
+
+    fn is_connected(&self) -> bool {
+        self.outage.is_none()
     }
 
     fn max_payload(&self) -> usize {

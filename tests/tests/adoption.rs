@@ -1,0 +1,164 @@
+//! No entity lost: the entities of a cluster taken for dead are adopted by exactly one
+//! survivor, by the rule every survivor computes the same way (nearest region, then smallest
+//! id); an entity handed to it just before it died comes back to the cluster that handed it;
+//! and if it returns still claiming its entities, the adopters hand them back. Three clusters
+//! in a row along x, in one process on the in-process transport.
+
+use seam_proxy::{Cluster, ClusterConfig, NeighbourStatus, Region, WorldCluster};
+use seam_sim::BodyRole;
+use seam_sim::wire::{ClusterId, EntityId};
+use seam_tests::ball_at;
+
+const TIMEOUT_TICKS: u64 = 10;
+
+fn region(x0: f32, x1: f32) -> Region {
+    Region {
+        min: [x0, -100.0, -100.0],
+        max: [x1, 100.0, 100.0],
+    }
+}
+
+/// West [-30,-10], middle [-10,10], east [10,30]; middle neighbours both, they only it.
+fn row(url: &str) -> [Cluster; 3] {
+    let ids = [
+        ClusterId::random(),
+        ClusterId::random(),
+        ClusterId::random(),
+    ];
+    let regions = [
+        region(-30.0, -10.0),
+        region(-10.0, 10.0),
+        region(10.0, 30.0),
+    ];
+    let neighbours = [vec![ids[1]], vec![ids[0], ids[2]], vec![ids[1]]];
+    let world: Vec<WorldCluster> = (0..3)
+        .map(|i| WorldCluster {
+            id: ids[i],
+            region: regions[i],
+            neighbours: neighbours[i].clone(),
+        })
+        .collect();
+    [0, 1, 2].map(|i| {
+        let mut config = ClusterConfig::new(ids[i], neighbours[i].clone(), url);
+        config.gravity = [0.0; 3];
+        config.region = regions[i];
+        config.spread = 40.0;
+        config.neighbour_timeout_ticks = TIMEOUT_TICKS;
+        config.world = world.clone();
+        Cluster::new(config).expect("cluster")
+    })
+}
+
+fn tick(clusters: &mut [Cluster], which: &[usize]) {
+    for &i in which {
+        clusters[i].tick(|_, _| {}).expect("tick");
+    }
+}
+
+/// Which of `among` own `id` (as a simulated body).
+fn owners_among(clusters: &[Cluster], among: &[usize], id: EntityId) -> Vec<usize> {
+    among
+        .iter()
+        .copied()
+        .filter(|&i| {
+            clusters[i].sim().info(id).is_some_and(|info| {
+                info.cluster_id == clusters[i].id() && info.role == BodyRole::Dynamic
+            })
+        })
+        .collect()
+}
+
+/// Which clusters own `id`.
+fn owners(clusters: &[Cluster], id: EntityId) -> Vec<usize> {
+    owners_among(clusters, &[0, 1, 2], id)
+}
+
+#[test]
+fn a_dead_clusters_entities_are_adopted_once_and_returned() {
+    let url = format!("local?prefix=seam_adopt_{}_", std::process::id());
+    let mut clusters = row(&url);
+    let (west, middle, east) = (0, 1, 2);
+    let middle_id = clusters[middle].id();
+    let balls: Vec<_> = [-4.0, 0.0, 4.0]
+        .iter()
+        .map(|&x| ball_at(x, middle_id))
+        .collect();
+    for ball in &balls {
+        clusters[middle]
+            .spawn_owned(ball, BodyRole::Dynamic)
+            .expect("spawn");
+    }
+    let handed = ball_at(-12.0, clusters[west].id());
+    clusters[west]
+        .spawn_owned(&handed, BodyRole::Dynamic)
+        .expect("spawn");
+    for _ in 0..3 {
+        tick(&mut clusters, &[west, middle, east]);
+    }
+    // West hands a ball to middle, which dies before it reads the hand-off.
+    let middle_id = clusters[middle].id();
+    clusters[west]
+        .transfer_authority(handed.id, middle_id)
+        .expect("hand-off");
+    tick(&mut clusters, &[west, east]);
+    let survivors = |clusters: &[Cluster], id| owners_among(clusters, &[0, 2], id);
+    assert_eq!(
+        survivors(&clusters, handed.id),
+        Vec::<usize>::new(),
+        "in flight"
+    );
+    for _ in 0..TIMEOUT_TICKS + 1 {
+        tick(&mut clusters, &[west, east]);
+    }
+    for survivor in [west, east] {
+        assert_eq!(
+            clusters[survivor].neighbour_status(middle_id),
+            Some(NeighbourStatus::Silent)
+        );
+    }
+    // Nearest region adopts; the ball at 0 is as near to both, so the smaller id takes it.
+    let tie = if clusters[west].id() < clusters[east].id() {
+        west
+    } else {
+        east
+    };
+    assert_eq!(survivors(&clusters, balls[0].id), vec![west], "ball at -4");
+    assert_eq!(survivors(&clusters, balls[1].id), vec![tie], "ball at 0");
+    assert_eq!(survivors(&clusters, balls[2].id), vec![east], "ball at +4");
+    assert_eq!(
+        survivors(&clusters, handed.id),
+        vec![west],
+        "the hand-off middle never took is back with west"
+    );
+    let adopted: u64 = clusters.iter().map(|c| c.stats().entities_adopted).sum();
+    assert_eq!(adopted, 3, "each of middle's balls adopted once");
+    assert_eq!(clusters[west].stats().handoffs_reclaimed, 1);
+    // Neither survivor keeps a proxy of middle.
+    for survivor in [west, east] {
+        let of_middle = clusters[survivor]
+            .sim()
+            .entities()
+            .filter(|(_, info)| info.cluster_id == middle_id)
+            .count();
+        assert_eq!(of_middle, 0, "no proxy of the dead cluster left");
+    }
+
+    // Middle was only stalled: it returns, still claiming its balls. The adopters hand them
+    // back; afterwards each ball has one owner. The hand-off it never read stays undone: west's
+    // newer frames list that ball as west's own, so the old hand-off is not replayed.
+    for _ in 0..4 {
+        tick(&mut clusters, &[west, middle, east]);
+    }
+    for ball in &balls {
+        assert_eq!(owners(&clusters, ball.id), vec![middle], "{}", ball.id);
+    }
+    assert_eq!(owners(&clusters, handed.id), vec![west]);
+    let returned: u64 = clusters.iter().map(|c| c.stats().entities_returned).sum();
+    assert_eq!(returned, 3, "the three adopted balls went back");
+    for survivor in [west, east] {
+        assert_eq!(
+            clusters[survivor].neighbour_status(middle_id),
+            Some(NeighbourStatus::Alive)
+        );
+    }
+}
