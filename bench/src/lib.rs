@@ -15,6 +15,8 @@
 //! - [`ping`] — `seam ping`: one-way latency between two processes over any transport, with
 //!   plain iceoryx2 as the floor.
 //! - [`ops`] — `seam ops`: routed-op latency between two processes, stage by stage.
+//! - [`redis_server`] — a private `redis-server` child that runs and tests can crash and
+//!   restart.
 //! - [`scene`] — the scene format (`bench/scenes/*.toml`) and its checks.
 //! - [`wait`] — spinning or sleeping for the next message ([`wait::WaitMode`]).
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.
@@ -28,6 +30,7 @@ pub mod node;
 pub mod ops;
 pub mod ping;
 pub mod pod;
+pub mod redis_server;
 pub mod run;
 pub mod scene;
 pub mod sweep;

@@ -61,8 +61,12 @@ struct Peer {
     status: NeighbourStatus,
     /// This cluster's tick when it last heard from the neighbour.
     heard_at: u64,
-    /// The highest tick of the neighbour's frames taken so far.
-    newest_tick: Option<u64>,
+    /// The highest tick of the neighbour's replication frames taken so far.
+    newest_replication: Option<u64>,
+    /// The same for its physics-events frames.
+    newest_events: Option<u64>,
+    /// Host monotonic time of its last frame taken, ns.
+    heard_ns: u64,
 }
 
 /// Room for a physics-events frame when advertising (about 80 ops; larger frames grow it).
@@ -133,7 +137,9 @@ impl Cluster {
                 let peer = Peer {
                     status: NeighbourStatus::NotHeard,
                     heard_at: 0,
-                    newest_tick: None,
+                    newest_replication: None,
+                    newest_events: None,
+                    heard_ns: 0,
                 };
                 (n, peer)
             })
@@ -294,14 +300,23 @@ impl Cluster {
         let up = self.transport.is_connected();
         if !up || !self.transport_was_up {
             self.transport_was_up = up;
+            let now_ns = monotonic_ns();
             for peer in self.liveness.values_mut() {
                 peer.heard_at = now;
+                peer.heard_ns = now_ns;
             }
             return;
         }
+        // Silent for more than the timeout in ticks *and* in host time (timeout × dt): a pod
+        // catching up after a stall runs its ticks back to back, faster than its neighbours
+        // publish, and must not take them for dead for that.
+        let timeout_ns = (timeout as f64 * f64::from(self.config.dt) * 1e9) as u64;
+        let now_ns = monotonic_ns();
         let mut lost = Vec::new();
         for (&neighbour, peer) in self.liveness.iter_mut() {
-            if peer.status == NeighbourStatus::Alive && now.saturating_sub(peer.heard_at) > timeout
+            if peer.status == NeighbourStatus::Alive
+                && now.saturating_sub(peer.heard_at) > timeout
+                && now_ns.saturating_sub(peer.heard_ns) > timeout_ns
             {
                 peer.status = NeighbourStatus::Silent;
                 lost.push(neighbour);
@@ -373,32 +388,60 @@ impl Cluster {
         }
     }
 
-    /// Notes a frame from `neighbour` tagged `tick`.
-    fn heard(&mut self, neighbour: ClusterId, tick: u64) {
+    /// Notes a frame from `neighbour` tagged `tick` (a replication frame or not).
+    fn heard(&mut self, neighbour: ClusterId, tick: u64, replication: bool) {
         let now = self.sim.tick();
         if let Some(peer) = self.liveness.get_mut(&neighbour) {
             if peer.status == NeighbourStatus::Silent {
+                // Back, perhaps restarted with a lower tick: its ticks count afresh.
                 self.stats.neighbours_rejoined += 1;
+                peer.newest_replication = None;
+                peer.newest_events = None;
             }
             peer.status = NeighbourStatus::Alive;
             peer.heard_at = now;
-            peer.newest_tick = Some(peer.newest_tick.map_or(tick, |t| t.max(tick)));
+            peer.heard_ns = monotonic_ns();
+            let newest = if replication {
+                &mut peer.newest_replication
+            } else {
+                &mut peer.newest_events
+            };
+            *newest = Some(newest.map_or(tick, |t| t.max(tick)));
         }
     }
 
-    /// Whether a frame of `neighbour` tagged `tick` is too far ahead of its frames so far to be
-    /// real: a live neighbour's ticks advance one by one, and a restarted one resumes where the
-    /// world is. Such a frame (a forgery that would otherwise pass for the newest) is dropped.
+    /// Whether a frame of a live `neighbour` is tagged no later than one of its frames of the
+    /// same kind taken before: a sender publishes one per tick, in order, so it is a replay (or
+    /// a forgery of a tick already seen).
+    fn replayed(&self, neighbour: ClusterId, tick: u64, replication: bool) -> bool {
+        self.liveness.get(&neighbour).is_some_and(|peer| {
+            let newest = if replication {
+                peer.newest_replication
+            } else {
+                peer.newest_events
+            };
+            peer.status == NeighbourStatus::Alive && newest.is_some_and(|n| tick <= n)
+        })
+    }
+
+    /// Whether a frame of `neighbour` tagged `tick` is further ahead than any live neighbour
+    /// could be: pods share one schedule, so a neighbour is at most where this cluster is, or
+    /// where its own last frame was plus one tick per `dt` of host time since (this cluster may
+    /// be the one that stalled), plus twice the neighbour timeout of slack. Such a frame could
+    /// only be forged, and would otherwise pass for the newest; it is dropped.
     fn implausible(&self, neighbour: ClusterId, tick: u64) -> bool {
         let window = self.config.neighbour_timeout_ticks.saturating_mul(2);
         if window == 0 {
             return false;
         }
+        let dt_ns = (f64::from(self.config.dt) * 1e9).max(1.0);
+        let mine = self.sim.tick();
         self.liveness.get(&neighbour).is_some_and(|peer| {
+            let elapsed = (monotonic_ns().saturating_sub(peer.heard_ns) as f64 / dt_ns) as u64;
             peer.status == NeighbourStatus::Alive
-                && peer
-                    .newest_tick
-                    .is_some_and(|newest| tick > newest.saturating_add(window))
+                && peer.newest_replication.max(peer.newest_events).is_some_and(|newest| {
+                    tick > newest.saturating_add(elapsed).max(mine).saturating_add(window)
+                })
         })
     }
 
@@ -472,12 +515,13 @@ impl Cluster {
                 self.stats.frames_implausible += 1;
                 return;
             }
+            Ok(frame) if self.replayed(frame.from(), frame.tick(), frame.is_replication()) => None,
             Ok(Frame::Replication(frame)) if self.config.neighbours.contains(&frame.from) => {
-                let from = (frame.from, frame.tick);
+                let from = (frame.from, frame.tick, true);
                 self.inbox.add_replication(frame).then_some(from)
             }
             Ok(Frame::Events(frame)) if self.config.neighbours.contains(&frame.from) => {
-                let from = (frame.from, frame.tick);
+                let from = (frame.from, frame.tick, false);
                 self.inbox.add_events(frame, received_ns).then_some(from)
             }
             Ok(_) | Err(Rejected::WrongSender) => {
@@ -494,9 +538,9 @@ impl Cluster {
             }
         };
         match kept {
-            Some((from, tick)) => {
+            Some((from, tick, replication)) => {
                 self.stats.frames_accepted += 1;
-                self.heard(from, tick);
+                self.heard(from, tick, replication);
             }
             None => self.stats.frames_duplicate += 1,
         }
@@ -843,6 +887,10 @@ impl Frame {
             Frame::Replication(f) => f.tick,
             Frame::Events(f) => f.tick,
         }
+    }
+
+    fn is_replication(&self) -> bool {
+        matches!(self, Frame::Replication(_))
     }
 }
 

@@ -84,7 +84,8 @@ pub struct ClusterConfig {
     /// Transport URL: `shm`, `local` or `redis://…`.
     pub transport: String,
     /// A neighbour heard from before and silent for more than this many ticks is taken for
-    /// dead: its proxies are despawned and it is counted in `ClusterStats::neighbours_lost`
+    /// dead (and as long in host time, ticks × `dt`): its entities are adopted (see `world`)
+    /// or its proxies despawned, and it is counted in `ClusterStats::neighbours_lost`
     /// (free-running ticks only; lock-step waits for it instead). 0 never gives up.
     pub neighbour_timeout_ticks: u64,
     /// Largest magnitude accepted from another cluster for any coordinate of a replicated

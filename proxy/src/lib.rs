@@ -99,8 +99,9 @@
 //!
 //! Every received frame is counted once in [`ClusterStats`]: taken (`frames_accepted`), or
 //! refused as undecodable, of another format version, from a sender that is not a neighbour or
-//! not the cluster its channel names, or as a second frame of the same sender and tick (a replay
-//! or forgery; the first is kept). States from a cluster that does not own their entity, with
+//! not the cluster its channel names, as a replay (a frame of a live sender tagged no later than
+//! one of its frames of the same kind already taken: a sender publishes one per tick, in order;
+//! the first is kept), or as tagged further ahead than the sender could be (below). States from a cluster that does not own their entity, with
 //! NaN, or with a coordinate beyond `max_magnitude` are rejected and counted; so are routed ops
 //! with NaN, beyond `max_magnitude`, or for an entity not owned here. None of it panics or
 //! touches the world.
@@ -108,14 +109,17 @@
 //! # Liveness
 //!
 //! A free-running cluster that has heard from a neighbour and then hears nothing for more than
-//! `neighbour_timeout_ticks` takes it for dead ([`NeighbourStatus::Silent`]) and counts it in
-//! [`ClusterStats::neighbours_lost`]. While the cluster's own transport is down
-//! (`Transport::is_connected`, a Redis outage) nobody is taken for dead, and every neighbour's
-//! clock restarts when it comes back. A frame from a silent neighbour makes it alive again
-//! (`neighbours_rejoined`). A hand-off to a neighbour taken for dead is refused; writes queued
-//! for it are dropped and counted (`ops_dropped_owner_dead`). A frame tagged more than twice the
-//! timeout ahead of a live neighbour's frames so far is dropped (`frames_implausible`): it could
-//! only be forged, and would otherwise pass for the newest.
+//! `neighbour_timeout_ticks` of its own ticks, and as long in host time (ticks × `dt`: a pod
+//! catching up after a stall runs ticks back to back), takes it for dead
+//! ([`NeighbourStatus::Silent`]) and counts it in [`ClusterStats::neighbours_lost`]. While the
+//! cluster's own transport is down (`Transport::is_connected`, a Redis outage) nobody is taken
+//! for dead, and every neighbour's clock restarts when it comes back. A frame from a silent
+//! neighbour makes it alive again (`neighbours_rejoined`). A hand-off to a neighbour taken for
+//! dead is refused; writes queued for it are dropped and counted (`ops_dropped_owner_dead`). A
+//! frame tagged further ahead than a live neighbour could be (pods share one schedule: beyond
+//! this cluster's own tick, or its last frame plus one tick per `dt` since, by more than twice
+//! the timeout) is dropped (`frames_implausible`): it could only be forged, and would otherwise
+//! pass for the newest.
 //!
 //! # Adoption: no entity lost
 //!

@@ -35,7 +35,8 @@ pub struct ClusterStats {
     pub frames_wrong_version: u64,
     /// Frames whose sender is not a neighbour, or not the cluster their channel names.
     pub frames_wrong_sender: u64,
-    /// A second frame of the same sender and tick (a replay or a forgery): the first is kept.
+    /// A frame of a live sender tagged no later than one of its frames already taken (a second
+    /// frame of a tick, or an old one: a replay or a forgery): the first is kept.
     pub frames_duplicate: u64,
     /// States ignored: sent by a cluster that is not the entity's owner, invalid, or beyond
     /// `ClusterConfig::max_magnitude`.
@@ -60,7 +61,7 @@ pub struct ClusterStats {
     pub entities_returned: u64,
     /// Routed writes queued for a neighbour taken for dead: not sent.
     pub ops_dropped_owner_dead: u64,
-    /// Frames tagged far ahead of their sender's frames so far (more than twice
-    /// `neighbour_timeout_ticks`): dropped as forged.
+    /// Frames tagged further ahead than a live sender could be (see the crate docs on
+    /// liveness): dropped as forged.
     pub frames_implausible: u64,
 }

@@ -255,3 +255,67 @@ pub fn ball_at(x: f32, owner: seam_sim::wire::ClusterId) -> seam_sim::wire::Enti
         },
     }
 }
+
+/// A private `redis-server` for a test that crashes and restarts it, or `None` (with a skip
+/// notice) where none can start, unless `SEAM_REQUIRE_REDIS=1`, under which the test fails.
+pub fn private_redis() -> Option<seam_bench::redis_server::RedisServer> {
+    match seam_bench::redis_server::RedisServer::start() {
+        Ok(server) => Some(server),
+        Err(e) if std::env::var("SEAM_REQUIRE_REDIS").as_deref() == Ok("1") => {
+            panic!("SEAM_REQUIRE_REDIS=1 but no private redis-server starts: {e}")
+        }
+        Err(e) => {
+            eprintln!("SKIP: {e}; set SEAM_REQUIRE_REDIS=1 to fail instead");
+            None
+        }
+    }
+}
+
+/// The scene file `name` of `bench/scenes`.
+pub fn scene_path(name: &str) -> std::path::PathBuf {
+    std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("../bench/scenes/{name}"))
+}
+
+/// Starts a `seam node` pod (the `seam-test-node` binary) of `scene` at 120 Hz for 480 ticks
+/// with a 30-tick neighbour timeout, its tick 0 at `start_at` (CLOCK_MONOTONIC ns), and `extra`
+/// flags.
+pub fn start_pod(
+    node_binary: &str,
+    scene: &std::path::Path,
+    cluster: &str,
+    url: &str,
+    run_id: &str,
+    start_at: u64,
+    extra: &[&str],
+) -> std::process::Child {
+    use std::process::{Command, Stdio};
+    Command::new(node_binary)
+        .arg(scene)
+        .args(["--cluster", cluster, "--transport", url, "--run-id", run_id])
+        .args(["--rate", "120", "--ticks", "480", "--quiet"])
+        .args(["--neighbour-timeout-ticks", "30"])
+        .args(["--start-at", &start_at.to_string()])
+        .args(extra)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("start a pod")
+}
+
+/// Reads a pod's JSON lines to the end and checks it exited well: the most proxies it
+/// reported, and its final report.
+pub fn finish_pod(mut pod: std::process::Child) -> (usize, seam_bench::node::NodeReport) {
+    use seam_bench::node::NodeLine;
+    use std::io::BufRead;
+    let stdout = pod.stdout.take().expect("the pod's stdout");
+    let mut proxies_seen = 0;
+    let mut report = None;
+    for line in std::io::BufReader::new(stdout).lines() {
+        match serde_json::from_str::<NodeLine>(&line.expect("a line")).expect("a node line") {
+            NodeLine::Progress(p) => proxies_seen = proxies_seen.max(p.proxies),
+            NodeLine::Report(r) => report = Some(*r),
+        }
+    }
+    assert!(pod.wait().expect("the pod ends").success());
+    (proxies_seen, report.expect("the pod reports"))
+}

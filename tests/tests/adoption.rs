@@ -49,7 +49,10 @@ fn row(url: &str) -> [Cluster; 3] {
     })
 }
 
+/// One tick of each of `which`, paced like a pod (a neighbour is taken for dead after the
+/// timeout in ticks and in host time).
 fn tick(clusters: &mut [Cluster], which: &[usize]) {
+    std::thread::sleep(std::time::Duration::from_secs_f32(clusters[0].config().dt));
     for &i in which {
         clusters[i].tick(|_, _| {}).expect("tick");
     }

@@ -2,17 +2,15 @@
 //! its proxies despawned; when it publishes again it rejoins. In one process on the in-process
 //! transport, and with real pods where one is killed with SIGKILL or stopped with SIGSTOP.
 
-use std::io::{BufRead, BufReader};
-use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::Child;
 use std::time::Duration;
 
 use rustix::process::{Pid, Signal, kill_process};
-use seam_bench::node::{NodeLine, NodeReport};
+use seam_bench::node::NodeReport;
 use seam_proxy::{Cluster, ClusterConfig, NeighbourStatus, monotonic_ns};
 use seam_sim::BodyRole;
 use seam_sim::wire::ClusterId;
-use seam_tests::{TestContext, ball_at};
+use seam_tests::{TestContext, ball_at, finish_pod, scene_path, start_pod};
 use seam_transport::Backend;
 
 const TIMEOUT_TICKS: u64 = 10;
@@ -46,6 +44,8 @@ fn a_silent_neighbour_is_dropped_and_rejoins() {
 
     // A stops. B keeps its proxies for the timeout, then drops them.
     for tick in 1..=TIMEOUT_TICKS + 1 {
+        // Paced like a pod: silence counts in ticks and in host time.
+        std::thread::sleep(Duration::from_secs_f32(cluster_b.config().dt));
         cluster_b.tick(|_, _| {}).expect("b ticks");
         let expected = if tick <= TIMEOUT_TICKS { 2 } else { 0 };
         assert_eq!(cluster_b.sim().len(), expected, "silent for {tick} ticks");
@@ -79,32 +79,14 @@ fn a_silent_neighbour_is_dropped_and_rejoins() {
         .expect("A is alive again: hand-offs to it are allowed");
 }
 
-fn start_pod(scene: &PathBuf, cluster: &str, url: &str, run_id: &str, start_at: u64) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_seam-test-node"))
-        .arg(scene)
-        .args(["--cluster", cluster, "--transport", url, "--run-id", run_id])
-        .args(["--rate", "120", "--ticks", "480", "--quiet"])
-        .args(["--neighbour-timeout-ticks", "30"])
-        .args(["--start-at", &start_at.to_string()])
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .spawn()
-        .expect("start a pod")
-}
+const NODE: &str = env!("CARGO_BIN_EXE_seam-test-node");
 
-/// Reads a pod's JSON lines to the end: the most proxies it reported, and its final report.
-fn finish(mut pod: Child) -> (usize, NodeReport) {
-    let stdout = pod.stdout.take().expect("the pod's stdout");
-    let mut proxies_seen = 0;
-    let mut report = None;
-    for line in BufReader::new(stdout).lines() {
-        match serde_json::from_str::<NodeLine>(&line.expect("a line")).expect("a node line") {
-            NodeLine::Progress(p) => proxies_seen = proxies_seen.max(p.proxies),
-            NodeLine::Report(r) => report = Some(*r),
-        }
-    }
-    assert!(pod.wait().expect("the pod ends").success());
-    (proxies_seen, report.expect("the pod reports"))
+/// Checks that every entity of the run ended with exactly one owner.
+fn assert_ownership(scene: &std::path::Path, run_id: &str, reports: &[NodeReport]) {
+    let scene = seam_bench::scene::load(scene).expect("scene");
+    let ownership = seam_bench::run::ownership::check(&scene, run_id, reports);
+    assert!(ownership.holds(), "{ownership:?}");
+    assert!(ownership.expected >= scene.entity_count() as usize);
 }
 
 /// A pod stopped with SIGSTOP for a second costs counted drops, not blocked neighbours: west
@@ -115,11 +97,11 @@ fn a_stopped_pod_costs_counted_drops_and_catches_up() {
     let Some(ctx) = TestContext::new(Backend::Shm) else {
         return;
     };
-    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/crossfire.toml");
+    let scene = scene_path("crossfire.toml");
     let run_id = format!("stop{}", std::process::id());
     let start_at = monotonic_ns() + 500_000_000;
-    let west = start_pod(&scene, "west", &ctx.url(), &run_id, start_at);
-    let east = start_pod(&scene, "east", &ctx.url(), &run_id, start_at);
+    let west = start_pod(NODE, &scene, "west", &ctx.url(), &run_id, start_at, &[]);
+    let east = start_pod(NODE, &scene, "east", &ctx.url(), &run_id, start_at, &[]);
     std::thread::sleep(Duration::from_millis(1200));
     let signal = |child: &Child, signal: Signal| {
         let pid = Pid::from_raw(child.id() as i32).expect("a pid");
@@ -128,8 +110,9 @@ fn a_stopped_pod_costs_counted_drops_and_catches_up() {
     signal(&east, Signal::STOP);
     std::thread::sleep(Duration::from_secs(1));
     signal(&east, Signal::CONT);
-    let (_, west) = finish(west);
-    let (_, east) = finish(east);
+    let (_, west) = finish_pod(west);
+    let (_, east) = finish_pod(east);
+    eprintln!("west {:?}\neast {:?}", west.cluster_stats, east.cluster_stats);
     assert_eq!((west.ticks, east.ticks), (480, 480), "both ran every tick");
     assert!(
         west.max_lag_ns < 250_000_000,
@@ -154,24 +137,31 @@ fn a_stopped_pod_costs_counted_drops_and_catches_up() {
         "east was stopped for a second (lag {} ms)",
         east.max_lag_ns / 1_000_000
     );
+    // West adopted east's entities while it took east for dead, and handed every one back when
+    // east returned still claiming them: each entity has one owner.
+    let adopted = west.cluster_stats.entities_adopted;
+    assert!(adopted > 0, "west adopted east's entities");
+    assert_eq!(west.cluster_stats.entities_returned, adopted);
+    assert_ownership(&scene, &run_id, &[west, east]);
 }
 
 /// Two `crossfire` pods over shared memory; east is killed with SIGKILL a second in. West keeps
-/// ticking, takes east for dead after its timeout, drops east's proxies, and reports it.
+/// ticking, takes east for dead after its timeout, adopts east's entities (no proxy of east
+/// is left), and reports it.
 #[test]
 fn a_killed_pod_is_taken_for_dead_by_its_neighbour() {
     let Some(ctx) = TestContext::new(Backend::Shm) else {
         return;
     };
-    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/crossfire.toml");
+    let scene = scene_path("crossfire.toml");
     let run_id = format!("live{}", std::process::id());
     let start_at = monotonic_ns() + 500_000_000;
-    let west = start_pod(&scene, "west", &ctx.url(), &run_id, start_at);
-    let mut east = start_pod(&scene, "east", &ctx.url(), &run_id, start_at);
+    let west = start_pod(NODE, &scene, "west", &ctx.url(), &run_id, start_at, &[]);
+    let mut east = start_pod(NODE, &scene, "east", &ctx.url(), &run_id, start_at, &[]);
     std::thread::sleep(Duration::from_millis(1500));
     east.kill().expect("SIGKILL east");
     east.wait().expect("east is gone");
-    let (proxies_seen, report) = finish(west);
+    let (proxies_seen, report) = finish_pod(west);
     assert!(
         proxies_seen > 0,
         "west modelled east's crates while east lived"
@@ -181,5 +171,49 @@ fn a_killed_pod_is_taken_for_dead_by_its_neighbour() {
         report.cluster_stats.neighbours_lost, 1,
         "east taken for dead"
     );
-    assert_eq!(report.proxies, 0, "east's proxies despawned");
+    assert_eq!(report.proxies, 0, "east's proxies became west's own");
+    assert!(report.cluster_stats.entities_adopted > 0);
+    assert_ownership(&scene, &run_id, &[report]);
+}
+
+/// East is killed, and restarted with `--rejoin` two seconds later: west takes it for dead and
+/// adopts its entities, the new east starts empty at the world's tick (its iceoryx2 node
+/// reclaims what the dead one left), west sees it rejoin and models nothing twice; every entity
+/// ends with one owner.
+#[test]
+fn a_killed_pod_restarts_and_rejoins() {
+    let Some(ctx) = TestContext::new(Backend::Shm) else {
+        return;
+    };
+    let scene = scene_path("crossfire.toml");
+    let run_id = format!("rejoin{}", std::process::id());
+    let start_at = monotonic_ns() + 500_000_000;
+    let west = start_pod(NODE, &scene, "west", &ctx.url(), &run_id, start_at, &[]);
+    let mut east = start_pod(NODE, &scene, "east", &ctx.url(), &run_id, start_at, &[]);
+    std::thread::sleep(Duration::from_millis(1200));
+    east.kill().expect("SIGKILL east");
+    east.wait().expect("east is gone");
+    std::thread::sleep(Duration::from_millis(800));
+    let east = start_pod(
+        NODE,
+        &scene,
+        "east",
+        &ctx.url(),
+        &run_id,
+        start_at,
+        &["--rejoin"],
+    );
+    let (_, west) = finish_pod(west);
+    let (_, east) = finish_pod(east);
+    assert_eq!(west.ticks, 480);
+    assert!(
+        east.ticks < 400 && east.entities_at_start == 0,
+        "east rejoined at the world's tick ({}), empty",
+        east.ticks
+    );
+    assert_eq!(west.cluster_stats.neighbours_lost, 1);
+    assert_eq!(west.cluster_stats.neighbours_rejoined, 1, "east rejoined");
+    assert!(east.cluster_stats.frames_accepted > 0, "east hears west");
+    assert!(west.cluster_stats.entities_adopted > 0);
+    assert_ownership(&scene, &run_id, &[west, east]);
 }

@@ -160,6 +160,7 @@ pub fn run_node(
         (Some(at), _) => (at.max(now), now.saturating_sub(at)),
         (None, _) => (now, 0),
     };
+    let first_tick = done;
     let fail = |e: seam_proxy::ClusterError| format!("{}: {shown}: {e}", pod_name(&part));
     let started = Instant::now();
     let mut tick_time = LatencyRecorder::default();
@@ -212,7 +213,8 @@ pub fn run_node(
         cluster_id: pod.cluster().id().to_string(),
         transport: shown,
         rate_hz: args.rate,
-        ticks: done,
+        ticks: done - first_tick,
+        first_tick,
         ticks_planned: ticks,
         stopped_by_signal: done < ticks,
         wall_s: started.elapsed().as_secs_f64(),

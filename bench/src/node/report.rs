@@ -109,6 +109,8 @@ pub struct NodeReport {
     pub rate_hz: f64,
     /// Ticks run.
     pub ticks: u64,
+    /// The world tick it started at (0, or where a pod restarted with `--rejoin` joined).
+    pub first_tick: u64,
     /// Ticks planned.
     pub ticks_planned: u64,
     /// Stopped by SIGINT or SIGTERM before the planned ticks.

@@ -11,6 +11,7 @@
 //! routed-op stages. SIGINT or SIGTERM is passed on to the pods, which stop after their current
 //! tick and still report.
 
+pub mod ownership;
 mod report;
 
 use std::ffi::OsString;
@@ -50,6 +51,95 @@ pub struct RunPlan {
     pub start_delay: Duration,
     /// Tick all pods at the same moment instead of staggering them over the period.
     pub in_phase: bool,
+}
+
+impl RunPlan {
+    /// How much later than pod 0 pod `index` of `pods` ticks, ns (see the module docs).
+    pub fn pod_offset_ns(&self, index: usize, pods: u64) -> u64 {
+        if self.in_phase || self.rate <= 0.0 {
+            0
+        } else {
+            (1e9 / self.rate) as u64 * index as u64 / pods
+        }
+    }
+}
+
+/// One pod to start.
+pub struct PodLaunch<'a> {
+    /// Its place in the scene's clusters (tags its lines).
+    pub index: usize,
+    /// Scene cluster.
+    pub cluster: &'a str,
+    /// Its tick 0, CLOCK_MONOTONIC ns.
+    pub start_at: u64,
+    /// Ticks of the run.
+    pub ticks: u64,
+    /// Restarted into a running world (`seam node --rejoin`).
+    pub rejoin: bool,
+    /// Pipe its stderr (taken by the caller from the child) instead of sharing this one's.
+    pub pipe_stderr: bool,
+}
+
+/// A line a pod wrote, tagged with its index, or why it could not be read.
+pub type PodLine = (usize, Result<NodeLine, String>);
+
+/// Starts one `seam node` of `plan` and a thread that sends its JSON lines to `lines`.
+pub fn spawn_pod(
+    plan: &RunPlan,
+    launch: &PodLaunch<'_>,
+    lines: &mpsc::Sender<PodLine>,
+) -> Result<Child, String> {
+    let (program, leading) = plan
+        .node_command
+        .split_first()
+        .ok_or("no command to start a pod")?;
+    let stderr = if launch.pipe_stderr {
+        Stdio::piped()
+    } else {
+        Stdio::inherit()
+    };
+    let mut command = Command::new(program);
+    command
+        .args(leading)
+        .arg(&plan.scene)
+        .args(["--cluster", launch.cluster])
+        .args(["--transport", &plan.transport])
+        .args(["--rate", &plan.rate.to_string()])
+        .args(["--ticks", &launch.ticks.to_string()])
+        .args(["--run-id", &plan.run_id])
+        .args(["--proxy-mode", proxy_mode_name(plan.proxy_mode)])
+        .args([
+            "--replication-interval",
+            &plan.replication_interval.to_string(),
+        ])
+        .args(["--layers", &plan.layers.to_string()])
+        .args(["--start-at", &launch.start_at.to_string(), "--quiet"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(stderr);
+    if launch.rejoin {
+        command.arg("--rejoin");
+    }
+    let mut child = command
+        .spawn()
+        .map_err(|e| format!("cannot start the pod of {:?}: {e}", launch.cluster))?;
+    let stdout = child
+        .stdout
+        .take()
+        .ok_or_else(|| format!("pod {:?}: no stdout", launch.cluster))?;
+    let (lines, index) = (lines.clone(), launch.index);
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines() {
+            let parsed = line.map_err(|e| e.to_string()).and_then(|text| {
+                serde_json::from_str::<NodeLine>(&text)
+                    .map_err(|e| format!("unreadable line {text:?}: {e}"))
+            });
+            if lines.send((index, parsed)).is_err() {
+                break;
+            }
+        }
+    });
+    Ok(child)
 }
 
 /// Where the run is, for progress output.
@@ -111,59 +201,24 @@ pub fn run_pods(
         .map_err(|e| e.to_string())?
         .stacked(plan.layers)?;
     let ticks = plan.ticks.unwrap_or(scene.ticks);
-    let (program, leading) = plan
-        .node_command
-        .split_first()
-        .ok_or("no command to start a pod")?;
     let start_at = monotonic_ns() + plan.start_delay.as_nanos() as u64;
     let launched = Instant::now();
-    let (lines, incoming) = mpsc::channel::<(usize, Result<NodeLine, String>)>();
+    let (lines, incoming) = mpsc::channel::<PodLine>();
     let mut pods = Pods(Vec::new());
     let pods_n = scene.clusters.len() as u64;
     for (index, cluster) in scene.clusters.iter().enumerate() {
-        let offset = if plan.in_phase || plan.rate <= 0.0 {
-            0
-        } else {
-            (1e9 / plan.rate) as u64 * index as u64 / pods_n
-        };
-        let mut command = Command::new(program);
-        command
-            .args(leading)
-            .arg(&plan.scene)
-            .args(["--cluster", &cluster.name])
-            .args(["--transport", &plan.transport])
-            .args(["--rate", &plan.rate.to_string()])
-            .args(["--ticks", &ticks.to_string()])
-            .args(["--run-id", &plan.run_id])
-            .args(["--proxy-mode", proxy_mode_name(plan.proxy_mode)])
-            .args([
-                "--replication-interval",
-                &plan.replication_interval.to_string(),
-            ])
-            .args(["--layers", &plan.layers.to_string()])
-            .args(["--start-at", &(start_at + offset).to_string(), "--quiet"])
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit());
-        let mut child = command
-            .spawn()
-            .map_err(|e| format!("cannot start the pod of {:?}: {e}", cluster.name))?;
-        let stdout = child
-            .stdout
-            .take()
-            .ok_or_else(|| format!("pod {:?}: no stdout", cluster.name))?;
-        let lines = lines.clone();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines() {
-                let parsed = line.map_err(|e| e.to_string()).and_then(|text| {
-                    serde_json::from_str::<NodeLine>(&text)
-                        .map_err(|e| format!("unreadable line {text:?}: {e}"))
-                });
-                if lines.send((index, parsed)).is_err() {
-                    break;
-                }
-            }
-        });
+        let child = spawn_pod(
+            plan,
+            &PodLaunch {
+                index,
+                cluster: &cluster.name,
+                start_at: start_at + plan.pod_offset_ns(index, pods_n),
+                ticks,
+                rejoin: false,
+                pipe_stderr: false,
+            },
+            &lines,
+        )?;
         pods.0.push((cluster.name.clone(), child));
     }
     drop(lines);

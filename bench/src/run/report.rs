@@ -4,6 +4,7 @@ use seam_proxy::ClusterStats;
 use serde::Serialize;
 
 use super::RunPlan;
+use super::ownership::Ownership;
 use crate::latency::{LatencySummary, micros};
 use crate::node::{NodeReport, ProxyModeArg, TransportCounts};
 use crate::pod::{EventCounts, OpStages, OpStagesSummary};
@@ -98,6 +99,8 @@ pub struct RunReport {
     pub totals: Totals,
     /// Stages of every routed op applied in the run.
     pub ops: OpStagesSummary,
+    /// Whether every entity ended with exactly one owner.
+    pub ownership: Ownership,
 }
 
 impl RunReport {
@@ -157,6 +160,7 @@ impl RunReport {
             pods,
             totals,
             ops: all_ops.summary(),
+            ownership: super::ownership::check(scene, &plan.run_id, reports),
         }
     }
 }
@@ -283,12 +287,25 @@ pub fn table(report: &RunReport) -> String {
         t.overruns,
         t.neighbours_lost
     );
+    let o = &report.ownership;
+    out += &format!(
+        "ownership: {} entities expected, {} owned by exactly one pod, {} lost, {} owned twice{}\n",
+        o.expected,
+        o.owned_once,
+        o.lost.len(),
+        o.duplicated.len(),
+        if o.holds() { "" } else { "  <-- FAILED" }
+    );
     out
 }
 
 /// Frames a cluster refused, all reasons.
-fn refused(s: &ClusterStats) -> u64 {
-    s.frames_malformed + s.frames_wrong_version + s.frames_wrong_sender + s.frames_duplicate
+pub(crate) fn refused(s: &ClusterStats) -> u64 {
+    s.frames_malformed
+        + s.frames_wrong_version
+        + s.frames_wrong_sender
+        + s.frames_duplicate
+        + s.frames_implausible
 }
 
 fn millis(nanos: u64) -> String {

@@ -1,0 +1,81 @@
+//! Whether every entity of a run ended with exactly one owner.
+
+use std::collections::{HashMap, HashSet};
+
+use seam_sim::wire::EntityId;
+use serde::Serialize;
+
+use crate::node::NodeReport;
+use crate::pod::SceneIds;
+use crate::scene::Scene;
+
+/// How many of a run's entities ended owned once, not at all, or more than once.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Ownership {
+    /// Entities that must have an owner at the end: every entity the scene spawns, every
+    /// projectile a final pod saw in its world (looked for every few ticks), and whatever a pod
+    /// owns.
+    pub expected: usize,
+    /// Of those, owned by exactly one pod.
+    pub owned_once: usize,
+    /// Owned by no pod: lost.
+    pub lost: Vec<EntityId>,
+    /// Owned by more than one pod.
+    pub duplicated: Vec<EntityId>,
+}
+
+impl Ownership {
+    /// Whether every expected entity has exactly one owner.
+    pub fn holds(&self) -> bool {
+        self.lost.is_empty() && self.duplicated.is_empty()
+    }
+}
+
+/// The id of every entity `scene` spawns, as pods of run `run_id` name them.
+pub fn scene_entity_ids(scene: &Scene, run_id: &str) -> Vec<EntityId> {
+    let ids = SceneIds::new(run_id, &scene.name);
+    scene
+        .entities
+        .iter()
+        .flat_map(|entity| {
+            let count = entity
+                .grid
+                .map_or(1, |g| g.count.iter().product::<u32>() as u64);
+            (0..count).map(|index| ids.entity(&entity.name, index))
+        })
+        .collect()
+}
+
+/// Checks the final reports of a run's pods (one per cluster: the last incarnation of a pod
+/// that was restarted).
+pub fn check(scene: &Scene, run_id: &str, reports: &[NodeReport]) -> Ownership {
+    let mut owners: HashMap<EntityId, usize> = HashMap::new();
+    for report in reports {
+        for &id in &report.owned {
+            *owners.entry(id).or_default() += 1;
+        }
+    }
+    let mut expected: HashSet<EntityId> = scene_entity_ids(scene, run_id).into_iter().collect();
+    for report in reports {
+        expected.extend(report.projectiles_seen.iter().copied());
+    }
+    expected.extend(owners.keys().copied());
+    let mut lost: Vec<EntityId> = expected
+        .iter()
+        .filter(|id| !owners.contains_key(id))
+        .copied()
+        .collect();
+    let mut duplicated: Vec<EntityId> = owners
+        .iter()
+        .filter(|&(_, &n)| n > 1)
+        .map(|(&id, _)| id)
+        .collect();
+    lost.sort();
+    duplicated.sort();
+    Ownership {
+        expected: expected.len(),
+        owned_once: owners.values().filter(|&&n| n == 1).count(),
+        lost,
+        duplicated,
+    }
+}
