@@ -7,6 +7,8 @@
 //! - `src/main.rs` — the `seam` CLI (clap): subcommands and their flags.
 //! - [`run`] — `seam run`: starts one pod per cluster of a scene, shows progress, merges their
 //!   reports.
+//! - [`chaos`] — `seam chaos`: the pods under faults on a schedule (kills, stops, Redis
+//!   restarts, garbage and forged frames) and what survived.
 //! - [`node`] — `seam node`: one pod, ticking on a schedule and sleeping on its transport.
 //! - [`accuracy`] — `seam compare`: a split run against its single-world reference, tick by
 //!   tick, accuracy and cost of one setting; and the same for free-running pods.
@@ -25,6 +27,7 @@
 //!   proxies), `bench_replication` (op batches; 10 000 states end to end).
 
 pub mod accuracy;
+pub mod chaos;
 pub mod latency;
 pub mod node;
 pub mod ops;

@@ -4,6 +4,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use seam_bench::accuracy::{self, TrialSettings};
+use seam_bench::chaos::ChaosPlan;
 use seam_bench::node::{self, NodeArgs, ProxyModeArg};
 use seam_bench::ops::{self, OpsPlan};
 use seam_bench::ping::{self, PingPlan, WaitMode};
@@ -111,6 +112,42 @@ enum Command {
         /// Where to write the CSV and the charts.
         #[arg(long, default_value = "sweep")]
         out: std::path::PathBuf,
+    },
+    /// Run a scene's pods under faults on a schedule and report what survived.
+    ///
+    /// The pods run as in `seam run`, on shared memory under a private prefix or, with
+    /// `--transport redis`, on a private redis-server this command starts and restarts. Every
+    /// `--fault-every-s` one fault in turn: a pod killed with SIGKILL and restarted 2 s later
+    /// with `--rejoin`; a pod stopped with SIGSTOP for 1 s; the Redis server killed for 1 s
+    /// and restarted (Redis only). Between faults, garbage and forged frames go into every
+    /// channel four times a second. Prints faults injected and survived, injected frames
+    /// against the pods' refusal counters, entities lost or owned twice, ops and frames dropped
+    /// by reason, adoptions, outages, panics, and each pod's memory after warm-up. Exits with
+    /// 1 if a target does not hold.
+    Chaos {
+        /// The scene file (TOML), e.g. bench/scenes/crossfire.toml.
+        scene: std::path::PathBuf,
+        /// `shm`, or `redis` for a private redis-server (needs `redis-server` on the PATH).
+        #[arg(long, default_value = "shm", value_parser = ["shm", "redis"])]
+        transport: String,
+        /// How long the pods run, seconds.
+        #[arg(long, default_value_t = 60.0)]
+        duration_s: f64,
+        /// Seconds from the end of one fault to the start of the next.
+        #[arg(long, default_value_t = 5.0)]
+        fault_every_s: f64,
+        /// Ticks per second.
+        #[arg(long, default_value_t = 60.0)]
+        rate: f64,
+        /// Stack this many copies of every grid entity along y.
+        #[arg(long, default_value_t = 1)]
+        layers: u32,
+        /// Seeds which pod each fault hits and the garbage.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Print the report as one JSON object.
+        #[arg(long)]
+        json: bool,
     },
     /// One cluster pod: runs its part of a scene over a transport (started by `seam run`, or by
     /// hand on each host).
@@ -382,6 +419,44 @@ fn run_scene(mut plan: RunPlan) -> Result<run::RunReport, String> {
     })
 }
 
+/// `value` seconds (clap has checked it is a number; negative or not finite becomes 0, which
+/// the caller refuses).
+fn seconds(value: f64) -> std::time::Duration {
+    std::time::Duration::try_from_secs_f64(value).unwrap_or_default()
+}
+
+fn chaos(mut plan: ChaosPlan, json: bool) -> Result<(), String> {
+    if plan.duration < std::time::Duration::from_secs(10) {
+        return Err("--duration-s must be at least 10".into());
+    }
+    if plan.fault_every < std::time::Duration::from_secs(2) {
+        return Err("--fault-every-s must be at least 2 (a fault needs its quiet second)".into());
+    }
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find seam itself: {e}"))?;
+    plan.node_command = vec![exe.into(), "node".into()];
+    let stop = node::stop_flag()?;
+    eprintln!(
+        "seam chaos: {} for {:.0} s, a fault every {:.0} s",
+        plan.scene.display(),
+        plan.duration.as_secs_f64(),
+        plan.fault_every.as_secs_f64()
+    );
+    let report = seam_bench::chaos::run(&plan, &stop, |line| eprintln!("{line}"))?;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).expect("reports serialise")
+        );
+    } else {
+        print!("{}", seam_bench::chaos::table(&report));
+    }
+    if report.holds() {
+        Ok(())
+    } else {
+        Err("seam chaos: a target did not hold (see the report)".into())
+    }
+}
+
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Run {
@@ -440,6 +515,28 @@ fn main() -> ExitCode {
             rate,
             out,
         } => sweep(scenes, quick, ticks, transport, rate, &out),
+        Command::Chaos {
+            scene,
+            transport,
+            duration_s,
+            fault_every_s,
+            rate,
+            layers,
+            seed,
+            json,
+        } => chaos(
+            ChaosPlan {
+                scene,
+                redis: transport == "redis",
+                rate,
+                duration: seconds(duration_s),
+                fault_every: seconds(fault_every_s),
+                layers,
+                seed,
+                node_command: Vec::new(),
+            },
+            json,
+        ),
         Command::Node(args) => node::stop_flag().and_then(|stop| {
             node::run_node(&args, &stop, &mut std::io::stdout().lock()).map(|_| ())
         }),

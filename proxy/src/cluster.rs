@@ -392,7 +392,8 @@ impl Cluster {
     fn heard(&mut self, neighbour: ClusterId, tick: u64, replication: bool) {
         let now = self.sim.tick();
         if let Some(peer) = self.liveness.get_mut(&neighbour) {
-            if peer.status == NeighbourStatus::Silent {
+            let back = peer.status == NeighbourStatus::Silent;
+            if back {
                 // Back, perhaps restarted with a lower tick: its ticks count afresh.
                 self.stats.neighbours_rejoined += 1;
                 peer.newest_replication = None;
@@ -407,6 +408,31 @@ impl Cluster {
                 &mut peer.newest_events
             };
             *newest = Some(newest.map_or(tick, |t| t.max(tick)));
+            if back {
+                self.return_adopted(neighbour);
+            }
+        }
+    }
+
+    /// Hands every entity adopted from `neighbour`, which is back, to it again at the next
+    /// replication frame: a restarted pod starts empty and gets its entities back; a stalled
+    /// one that still simulates them keeps its own copy (a hand-off of an entity it owns
+    /// changes nothing there), and this cluster's copy stops.
+    fn return_adopted(&mut self, neighbour: ClusterId) {
+        let me = self.config.cluster_id;
+        let sim = &self.sim;
+        let back: Vec<EntityId> = self
+            .adopted
+            .iter()
+            .filter(|&(id, &from)| {
+                from == neighbour && sim.info(*id).is_some_and(|i| i.cluster_id == me)
+            })
+            .map(|(&id, _)| id)
+            .collect();
+        for id in back {
+            self.adopted.swap_remove(&id);
+            self.transfers.insert(id, neighbour);
+            self.stats.entities_returned += 1;
         }
     }
 
@@ -439,9 +465,15 @@ impl Cluster {
         self.liveness.get(&neighbour).is_some_and(|peer| {
             let elapsed = (monotonic_ns().saturating_sub(peer.heard_ns) as f64 / dt_ns) as u64;
             peer.status == NeighbourStatus::Alive
-                && peer.newest_replication.max(peer.newest_events).is_some_and(|newest| {
-                    tick > newest.saturating_add(elapsed).max(mine).saturating_add(window)
-                })
+                && peer
+                    .newest_replication
+                    .max(peer.newest_events)
+                    .is_some_and(|newest| {
+                        tick > newest
+                            .saturating_add(elapsed)
+                            .max(mine)
+                            .saturating_add(window)
+                    })
         })
     }
 
@@ -650,20 +682,7 @@ impl Cluster {
             }
             let known_owner = self.sim.info(state.id).map(|i| i.cluster_id);
             let outcome = match known_owner {
-                // A cluster taken for dead is back and still has an entity adopted from it: it
-                // gets it back by a hand-off (this cluster's next frame), so one of the two
-                // copies stops.
-                Some(owner)
-                    if owner == me
-                        && state.cluster_id == from
-                        && self.adopted.get(&state.id) == Some(&from) =>
-                {
-                    self.adopted.swap_remove(&state.id);
-                    self.transfers.insert(state.id, from);
-                    self.stats.entities_returned += 1;
-                    Ok(())
-                }
-                // Handed back to this cluster, which owns it already: nothing to do.
+                // Handed (back) to this cluster, which owns it already: nothing to do.
                 Some(owner) if owner == me && state.cluster_id == me => Ok(()),
                 // Only an entity's owner speaks for it: a frame claiming another cluster's
                 // (or this cluster's) entity is ignored.

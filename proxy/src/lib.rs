@@ -136,17 +136,21 @@
 //! until the adopter's frames bring them back. An entity this cluster handed to `D` that `D`
 //! never listed is taken back. Counted in `entities_adopted` and `handoffs_reclaimed`.
 //!
-//! If `D` was only stalled and returns still claiming its entities, each adopter hands the ones
-//! it adopted from `D` back by a normal hand-off (`entities_returned`). A pod restarted after a
-//! crash starts empty instead and gets entities by hand-off like any cluster.
+//! When `D` is heard from again, each adopter hands the entities it adopted from `D` back by a
+//! normal hand-off at its next replication frame (`entities_returned`): a pod restarted after a
+//! crash starts empty and gets its entities back; one that was only stalled and still simulates
+//! them keeps its own copy (a hand-off of an entity it owns changes nothing there), and the
+//! adopter's copy stops.
 //!
 //! Limits: what happened to `D`'s entities after its last frame reached the survivors (the
 //! motion since, writes routed to it, projectiles it fired and never published) is lost, and
 //! that is the only loss; the adopted state is up to `neighbour_timeout_ticks` old. The rule
 //! needs the survivors to agree on `D`'s last frame (true unless `D` died while publishing it)
 //! and on who is alive; a candidate that is not this cluster's neighbour is assumed alive. An
-//! adopted entity handed on to a third cluster before `D` returns is not returned: if `D`
-//! returns still claiming it, two clusters simulate it. Without a world map nothing is adopted
+//! adopted entity handed on to a third cluster before `D` returns is not returned: if `D` was
+//! only stalled and still claims it, two clusters simulate it. A replayed frame of a dead `D`
+//! makes it look alive until it times out again (the entities go back and are adopted again
+//! from that frame). Without a world map nothing is adopted
 //! and `D`'s proxies are despawned.
 //!
 //! # Layout

@@ -57,7 +57,7 @@ pub struct ClusterStats {
     pub entities_adopted: u64,
     /// Entities handed to a neighbour that was taken for dead before it took them: taken back.
     pub handoffs_reclaimed: u64,
-    /// Adopted entities handed back to their owner, which returned still claiming them.
+    /// Adopted entities handed back to their owner when it was heard from again.
     pub entities_returned: u64,
     /// Routed writes queued for a neighbour taken for dead: not sent.
     pub ops_dropped_owner_dead: u64,

@@ -112,7 +112,10 @@ fn a_stopped_pod_costs_counted_drops_and_catches_up() {
     signal(&east, Signal::CONT);
     let (_, west) = finish_pod(west);
     let (_, east) = finish_pod(east);
-    eprintln!("west {:?}\neast {:?}", west.cluster_stats, east.cluster_stats);
+    eprintln!(
+        "west {:?}\neast {:?}",
+        west.cluster_stats, east.cluster_stats
+    );
     assert_eq!((west.ticks, east.ticks), (480, 480), "both ran every tick");
     assert!(
         west.max_lag_ns < 250_000_000,
@@ -214,6 +217,12 @@ fn a_killed_pod_restarts_and_rejoins() {
     assert_eq!(west.cluster_stats.neighbours_lost, 1);
     assert_eq!(west.cluster_stats.neighbours_rejoined, 1, "east rejoined");
     assert!(east.cluster_stats.frames_accepted > 0, "east hears west");
-    assert!(west.cluster_stats.entities_adopted > 0);
+    let adopted = west.cluster_stats.entities_adopted;
+    assert!(adopted > 0);
+    assert_eq!(
+        west.cluster_stats.entities_returned, adopted,
+        "west handed east's entities back when it rejoined"
+    );
+    assert_eq!(east.cluster_stats.handoffs_in, adopted);
     assert_ownership(&scene, &run_id, &[west, east]);
 }

@@ -42,14 +42,20 @@ fn the_redis_transport_reconnects_and_resubscribes() {
     let mut b = seam_transport::open(&server.url()).expect("b");
     b.subscribe("seam_out:direct").expect("subscribe");
     b.psubscribe("seam_out:pat*").expect("psubscribe");
-    until_received(a.as_mut(), b.as_mut(), "seam_out:direct", Duration::from_secs(5));
+    until_received(
+        a.as_mut(),
+        b.as_mut(),
+        "seam_out:direct",
+        Duration::from_secs(5),
+    );
 
     server.kill();
     // Publishing and receiving go on without errors; what is published is counted as dropped.
     let deadline = Instant::now() + Duration::from_secs(5);
     while a.is_connected() || b.is_connected() {
         assert!(Instant::now() < deadline, "the outage was not noticed");
-        a.publish("seam_out:direct", b"during").expect("publish while down");
+        a.publish("seam_out:direct", b"during")
+            .expect("publish while down");
         let _ = b
             .receive_timeout(Duration::from_millis(10))
             .expect("receive while down");
@@ -57,8 +63,18 @@ fn the_redis_transport_reconnects_and_resubscribes() {
     assert!(a.stats().dropped_while_down > 0, "{:?}", a.stats());
 
     server.restart().expect("restart redis-server");
-    until_received(a.as_mut(), b.as_mut(), "seam_out:direct", Duration::from_secs(5));
-    until_received(a.as_mut(), b.as_mut(), "seam_out:pattern", Duration::from_secs(5));
+    until_received(
+        a.as_mut(),
+        b.as_mut(),
+        "seam_out:direct",
+        Duration::from_secs(5),
+    );
+    until_received(
+        a.as_mut(),
+        b.as_mut(),
+        "seam_out:pattern",
+        Duration::from_secs(5),
+    );
     for stats in [a.stats(), b.stats()] {
         assert_eq!((stats.disconnects, stats.reconnects), (1, 1), "{stats:?}");
         assert!(stats.down_ns > 0);
@@ -115,7 +131,12 @@ fn pods_ride_out_a_redis_restart() {
             pod.cluster
         );
         let t = &pod.transport_stats;
-        assert_eq!((t.disconnects, t.reconnects), (1, 1), "{}: {t:?}", pod.cluster);
+        assert_eq!(
+            (t.disconnects, t.reconnects),
+            (1, 1),
+            "{}: {t:?}",
+            pod.cluster
+        );
         assert!(
             t.down_ns >= 900_000_000 && t.dropped_while_down > 0,
             "{}: the gap is reported: {t:?}",

@@ -1,0 +1,421 @@
+//! `seam chaos`: a scene's pods under faults on a schedule, and what survived.
+//!
+//! The pods run as in `seam run` (one `seam node` per cluster, staggered, shared schedule) on a
+//! transport of their own: shared memory under a private prefix, or with `--transport redis` a
+//! private `redis-server` this command starts (so it can kill it). Every `fault_every` one
+//! fault, in turn:
+//!
+//! 1. **kill** a pod with SIGKILL and start it again 2 s later with `--rejoin` (empty, at the
+//!    world's tick; its neighbours adopted what it owned and hand it back);
+//! 2. **restart Redis** (SIGKILL, 1 s down, started again on the same port), with Redis only;
+//! 3. **stop** a pod with SIGSTOP for 1 s, then SIGCONT.
+//!
+//! No fault starts in the last 9 s, so the run ends calm.
+//!
+//! Between faults, every 250 ms, bursts of garbage and forged frames go into every channel
+//! ([`inject`]); none in the second before a fault, so every injected frame has been counted by
+//! a pod that is still there to report it. A fault is *survived* when every pod has shown
+//! progress again within 5 s of its end. At the end: faults by kind, injected frames against
+//! the pods' refusal counters, entities lost or owned twice, ops and frames dropped by reason,
+//! adoption, outages, panics, and each pod's memory after warm-up.
+
+mod inject;
+mod report;
+
+use std::collections::VecDeque;
+use std::ffi::OsString;
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::Child;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use rustix::process::{Pid, Signal, kill_process};
+use seam_proxy::monotonic_ns;
+
+use crate::node::{NodeLine, NodeProgress, NodeReport, ProxyModeArg};
+use crate::pod::SceneIds;
+use crate::redis_server::RedisServer;
+use crate::run::{PodLaunch, PodLine, RunPlan, fresh_run_id, spawn_pod};
+pub use inject::{InjectCounts, Injector};
+pub use report::{ChaosReport, FaultCounts, MemoryRow, table};
+
+/// What `seam chaos` runs.
+pub struct ChaosPlan {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// A private Redis server instead of shared memory.
+    pub redis: bool,
+    /// Ticks per second.
+    pub rate: f64,
+    /// How long the pods run.
+    pub duration: Duration,
+    /// Time from the end of one fault to the start of the next.
+    pub fault_every: Duration,
+    /// Copies of every grid entity stacked along y.
+    pub layers: u32,
+    /// Seeds which pod each fault hits and the garbage.
+    pub seed: u64,
+    /// The command that starts a pod, before its flags: `[seam, "node"]`.
+    pub node_command: Vec<OsString>,
+}
+
+/// A fault, and what it waits for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Fault {
+    Kill,
+    Stop,
+    RestartRedis,
+}
+
+enum Phase {
+    /// Between faults; the next one is due at the instant.
+    Calm(Instant),
+    /// Pod `index` is dead until the instant.
+    Killed(usize, Instant),
+    /// Pod `index` is stopped until the instant.
+    Stopped(usize, Instant),
+    /// The Redis server is down until the instant.
+    RedisDown(Instant),
+}
+
+/// One pod: its current process and what it said.
+struct PodState {
+    name: String,
+    start_at: u64,
+    child: Option<Child>,
+    latest: Option<(Instant, NodeProgress)>,
+    /// (seconds since launch, RSS KiB) of the current incarnation.
+    memory: Vec<(f64, u64)>,
+    report: Option<NodeReport>,
+}
+
+const KILLED_FOR: Duration = Duration::from_secs(2);
+const STOPPED_FOR: Duration = Duration::from_secs(1);
+const REDIS_DOWN_FOR: Duration = Duration::from_secs(1);
+const BURST_EVERY: Duration = Duration::from_millis(250);
+const QUIET_BEFORE_FAULT: Duration = Duration::from_secs(1);
+const SURVIVE_WITHIN: Duration = Duration::from_secs(5);
+
+fn signal(child: &Child, signal: Signal) {
+    if let Some(pid) = Pid::from_raw(child.id() as i32) {
+        let _ = kill_process(pid, signal);
+    }
+}
+
+/// Forwards a pod's stderr to this one's, prefixed, counting panic messages.
+fn watch_stderr(child: &mut Child, name: String, panics: Arc<AtomicU64>) {
+    if let Some(stderr) = child.stderr.take() {
+        std::thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                if line.contains("panicked at") {
+                    panics.fetch_add(1, Ordering::Relaxed);
+                }
+                eprintln!("[{name}] {line}");
+            }
+        });
+    }
+}
+
+/// Runs the plan; `progress` gets a line about once a second.
+pub fn run(
+    plan: &ChaosPlan,
+    stop: &AtomicBool,
+    mut progress: impl FnMut(&str),
+) -> Result<ChaosReport, String> {
+    let scene = crate::scene::load(&plan.scene)
+        .map_err(|e| e.to_string())?
+        .stacked(plan.layers)?;
+    if !(plan.rate.is_finite() && plan.rate > 0.0) {
+        return Err(format!("--rate must be positive, not {}", plan.rate));
+    }
+    let mut redis = if plan.redis {
+        Some(RedisServer::start()?)
+    } else {
+        None
+    };
+    let run_id = fresh_run_id();
+    let transport = match &redis {
+        Some(server) => server.url(),
+        None => format!("shm?prefix=seam_chaos_{}_", std::process::id()),
+    };
+    let ticks = (plan.duration.as_secs_f64() * plan.rate).ceil() as u64;
+    let run_plan = RunPlan {
+        scene: plan.scene.clone(),
+        transport: transport.clone(),
+        rate: plan.rate,
+        ticks: Some(ticks),
+        proxy_mode: ProxyModeArg::Fixed,
+        replication_interval: 1,
+        layers: plan.layers,
+        run_id: run_id.clone(),
+        node_command: plan.node_command.clone(),
+        start_delay: Duration::from_millis(1500),
+        in_phase: false,
+    };
+    let panics = Arc::new(AtomicU64::new(0));
+    let (lines, incoming) = mpsc::channel::<PodLine>();
+    let start_at = monotonic_ns() + run_plan.start_delay.as_nanos() as u64;
+    let launched = Instant::now();
+    let n = scene.clusters.len();
+    let mut pods: Vec<PodState> = Vec::new();
+    let launch = |pods: &mut Vec<PodState>, index: usize, rejoin: bool| -> Result<(), String> {
+        let pod = &mut pods[index];
+        let mut child = spawn_pod(
+            &run_plan,
+            &PodLaunch {
+                index,
+                cluster: &pod.name,
+                start_at: pod.start_at,
+                ticks,
+                rejoin,
+                pipe_stderr: true,
+            },
+            &lines,
+        )?;
+        watch_stderr(&mut child, pod.name.clone(), Arc::clone(&panics));
+        pod.child = Some(child);
+        pod.latest = None;
+        pod.memory.clear();
+        Ok(())
+    };
+    for (index, cluster) in scene.clusters.iter().enumerate() {
+        pods.push(PodState {
+            name: cluster.name.clone(),
+            start_at: start_at + run_plan.pod_offset_ns(index, n as u64),
+            child: None,
+            latest: None,
+            memory: Vec::new(),
+            report: None,
+        });
+        launch(&mut pods, index, false)?;
+    }
+    let ids = SceneIds::new(&run_id, &scene.name);
+    let clusters = scene
+        .clusters
+        .iter()
+        .map(|c| ids.cluster(&c.name))
+        .collect();
+    let mut injector = Injector::new(&transport, clusters, plan.seed)?;
+
+    let mut rng = plan.seed.max(1);
+    let mut pick = |bound: usize| {
+        rng = rng
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((rng >> 33) as usize) % bound.max(1)
+    };
+    let mut kinds = VecDeque::from(if plan.redis {
+        vec![Fault::Kill, Fault::RestartRedis, Fault::Stop]
+    } else {
+        vec![Fault::Kill, Fault::Stop]
+    });
+    let first_fault = launched + run_plan.start_delay + plan.fault_every;
+    let last_fault_by = launched
+        + run_plan.start_delay
+        + plan
+            .duration
+            .saturating_sub(KILLED_FOR + SURVIVE_WITHIN + Duration::from_secs(2));
+    let mut phase = Phase::Calm(first_fault);
+    let mut faults = FaultCounts::default();
+    let mut pending_survival: Option<(Fault, Instant)> = None;
+    let mut dead_incarnations: Vec<NodeProgress> = Vec::new();
+    let mut failed_faults: Vec<String> = Vec::new();
+    let mut next_burst = Instant::now();
+    let mut last_shown = Instant::now();
+    let mut problems: Vec<String> = Vec::new();
+
+    let take =
+        |pods: &mut Vec<PodState>, (index, line): PodLine, problems: &mut Vec<String>| match line {
+            Ok(NodeLine::Progress(p)) => {
+                let pod = &mut pods[index];
+                pod.memory
+                    .push((launched.elapsed().as_secs_f64(), p.rss_kib));
+                pod.latest = Some((Instant::now(), *p));
+            }
+            Ok(NodeLine::Report(r)) => pods[index].report = Some(*r),
+            Err(e) => problems.push(format!("pod {:?}: {e}", pods[index].name)),
+        };
+    loop {
+        match incoming.recv_timeout(Duration::from_millis(20)) {
+            Ok(line) => take(&mut pods, line, &mut problems),
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        }
+        let all_exited = pods.iter_mut().all(|p| match &mut p.child {
+            Some(child) => matches!(child.try_wait(), Ok(Some(_))),
+            None => false,
+        });
+        if all_exited && matches!(phase, Phase::Calm(_)) {
+            // Let the readers deliver the last lines.
+            while let Ok(line) = incoming.recv_timeout(Duration::from_millis(200)) {
+                take(&mut pods, line, &mut problems);
+            }
+            break;
+        }
+        if stop.load(Ordering::Relaxed) {
+            for pod in &pods {
+                if let Some(child) = &pod.child {
+                    signal(child, Signal::CONT);
+                    signal(child, Signal::TERM);
+                }
+            }
+        }
+        let now = Instant::now();
+        if let Some(r) = &redis
+            && !r.is_running()
+            && !matches!(phase, Phase::RedisDown(_))
+        {
+            return Err("the Redis server is down outside a fault".into());
+        }
+        if let Some((fault, ended)) = pending_survival {
+            let fresh = |pod: &PodState| pod.latest.as_ref().is_some_and(|(at, _)| *at > ended);
+            if pods.iter().all(fresh) {
+                faults.survived(fault);
+                pending_survival = None;
+            } else if now > ended + SURVIVE_WITHIN {
+                failed_faults.push(format!("{fault:?}: not every pod ran again within 5 s"));
+                pending_survival = None;
+            }
+        }
+        phase = match phase {
+            Phase::Calm(due) => {
+                let all_running = pods.iter().all(|p| p.latest.is_some());
+                if all_running
+                    && pending_survival.is_none()
+                    && now >= next_burst
+                    && now + QUIET_BEFORE_FAULT < due
+                    && !stop.load(Ordering::Relaxed)
+                {
+                    injector.burst()?;
+                    next_burst = now + BURST_EVERY;
+                } else {
+                    injector.observe()?;
+                }
+                if now >= due && now < last_fault_by && pending_survival.is_none() && all_running {
+                    let fault = kinds[0];
+                    kinds.rotate_left(1);
+                    let index = pick(n);
+                    match fault {
+                        Fault::Kill => {
+                            if let Some(mut child) = pods[index].child.take() {
+                                let _ = child.kill();
+                                let _ = child.wait();
+                            }
+                            // The dead incarnation's last counters: read what it wrote.
+                            let until = Instant::now() + Duration::from_millis(150);
+                            while let Some(left) = until.checked_duration_since(Instant::now()) {
+                                if let Ok(line) = incoming.recv_timeout(left) {
+                                    take(&mut pods, line, &mut problems);
+                                }
+                            }
+                            if let Some((_, last)) = pods[index].latest.take() {
+                                dead_incarnations.push(last);
+                            }
+                            faults.kill += 1;
+                            Phase::Killed(index, now + KILLED_FOR)
+                        }
+                        Fault::Stop => {
+                            if let Some(child) = &pods[index].child {
+                                signal(child, Signal::STOP);
+                            }
+                            faults.stop += 1;
+                            Phase::Stopped(index, now + STOPPED_FOR)
+                        }
+                        Fault::RestartRedis => {
+                            if let Some(server) = &mut redis {
+                                server.kill();
+                            }
+                            faults.redis_restart += 1;
+                            Phase::RedisDown(now + REDIS_DOWN_FOR)
+                        }
+                    }
+                } else {
+                    Phase::Calm(due)
+                }
+            }
+            Phase::Killed(index, until) if now >= until => {
+                launch(&mut pods, index, true)?;
+                pending_survival = Some((Fault::Kill, now));
+                Phase::Calm(now + plan.fault_every)
+            }
+            Phase::Stopped(index, until) if now >= until => {
+                if let Some(child) = &pods[index].child {
+                    signal(child, Signal::CONT);
+                }
+                pending_survival = Some((Fault::Stop, now));
+                Phase::Calm(now + plan.fault_every)
+            }
+            Phase::RedisDown(until) if now >= until => {
+                if let Some(server) = &mut redis {
+                    server.restart()?;
+                }
+                pending_survival = Some((Fault::RestartRedis, now));
+                Phase::Calm(now + plan.fault_every)
+            }
+            other => other,
+        };
+        if last_shown.elapsed() >= Duration::from_secs(1) {
+            last_shown = Instant::now();
+            let ticks_now: Vec<String> = pods
+                .iter()
+                .map(|p| match &p.latest {
+                    Some((_, l)) => format!("{} {}/{}", p.name, l.tick, l.ticks),
+                    None => format!("{} -", p.name),
+                })
+                .collect();
+            let c = injector.counts();
+            progress(&format!(
+                "{:>5.0} s  {}  faults: {} kill, {} stop, {} redis; injected {} garbage, {} forged",
+                launched.elapsed().as_secs_f64(),
+                ticks_now.join(", "),
+                faults.kill,
+                faults.stop,
+                faults.redis_restart,
+                c.garbage_frames,
+                c.forged_frames
+            ));
+        }
+    }
+    let mut exited_badly = 0;
+    for pod in &mut pods {
+        if let Some(mut child) = pod.child.take() {
+            let status = child
+                .wait()
+                .map_err(|e| format!("pod {:?}: {e}", pod.name))?;
+            if !status.success() {
+                exited_badly += 1;
+                problems.push(format!("pod {:?} exited with {status}", pod.name));
+            }
+        }
+        if pod.report.is_none() {
+            problems.push(format!("pod {:?} sent no report", pod.name));
+        }
+    }
+    let reports: Vec<NodeReport> = pods.iter().filter_map(|p| p.report.clone()).collect();
+    let memory = pods
+        .iter()
+        .map(|p| MemoryRow::new(&p.name, &p.memory, plan.duration))
+        .collect();
+    Ok(ChaosReport::new(
+        &scene,
+        &run_id,
+        report::Inputs {
+            transport: seam_transport::redact_url(&transport),
+            rate: plan.rate,
+            duration_s: plan.duration.as_secs_f64(),
+            wall_s: launched.elapsed().as_secs_f64(),
+            faults,
+            failed_faults,
+            injected: injector.counts(),
+            reports: &reports,
+            dead_incarnations: &dead_incarnations,
+            panics: panics.load(Ordering::Relaxed),
+            exited_badly,
+            problems,
+            memory,
+        },
+    ))
+}

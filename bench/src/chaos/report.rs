@@ -1,0 +1,413 @@
+//! What `seam chaos` prints.
+
+use seam_proxy::ClusterStats;
+use serde::Serialize;
+
+use super::Fault;
+use super::inject::InjectCounts;
+use crate::node::{NodeProgress, NodeReport, TransportCounts};
+use crate::run::ownership::{self, Ownership};
+use crate::scene::Scene;
+
+/// Faults injected and survived, by kind.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct FaultCounts {
+    /// Pods killed with SIGKILL and restarted with `--rejoin`.
+    pub kill: u64,
+    /// Of those, after which every pod ran again within 5 s.
+    pub kill_survived: u64,
+    /// Pods stopped with SIGSTOP for a second.
+    pub stop: u64,
+    /// Survived.
+    pub stop_survived: u64,
+    /// Redis server kills and restarts.
+    pub redis_restart: u64,
+    /// Survived.
+    pub redis_restart_survived: u64,
+}
+
+impl FaultCounts {
+    pub(super) fn survived(&mut self, fault: Fault) {
+        match fault {
+            Fault::Kill => self.kill_survived += 1,
+            Fault::Stop => self.stop_survived += 1,
+            Fault::RestartRedis => self.redis_restart_survived += 1,
+        }
+    }
+
+    fn all_survived(&self) -> bool {
+        self.kill == self.kill_survived
+            && self.stop == self.stop_survived
+            && self.redis_restart == self.redis_restart_survived
+    }
+}
+
+/// One pod's memory after warm-up.
+#[derive(Debug, Clone, Serialize)]
+pub struct MemoryRow {
+    /// Scene cluster.
+    pub pod: String,
+    /// Seconds of the (last) incarnation's life taken as warm-up.
+    pub warmup_s: f64,
+    /// RSS at the end of warm-up, KiB.
+    pub base_kib: u64,
+    /// Largest RSS after warm-up, KiB.
+    pub max_kib: u64,
+    /// Growth of the largest over the base, percent (`None`: the incarnation lived too short).
+    pub growth_pct: Option<f64>,
+}
+
+impl MemoryRow {
+    /// From the RSS samples `(seconds, KiB)` of a pod's last incarnation: warm-up is a fifth of
+    /// the run, at least 10 s; a measure needs 10 s more.
+    pub fn new(pod: &str, samples: &[(f64, u64)], run: std::time::Duration) -> Self {
+        let warmup_s = (run.as_secs_f64() / 5.0).max(10.0);
+        let first = samples.first().map_or(0.0, |s| s.0);
+        let after: Vec<u64> = samples
+            .iter()
+            .filter(|(t, _)| *t - first >= warmup_s)
+            .map(|&(_, kib)| kib)
+            .collect();
+        let lived = samples.last().map_or(0.0, |s| s.0) - first;
+        let base_kib = after.first().copied().unwrap_or(0);
+        let max_kib = after.iter().copied().max().unwrap_or(0);
+        let growth_pct = (lived >= warmup_s + 10.0 && base_kib > 0)
+            .then(|| (max_kib as f64 - base_kib as f64) / base_kib as f64 * 100.0);
+        Self {
+            pod: pod.to_owned(),
+            warmup_s,
+            base_kib,
+            max_kib,
+            growth_pct,
+        }
+    }
+}
+
+/// Frames the pods took and refused, by reason.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct FrameCounts {
+    /// Taken.
+    pub accepted: u64,
+    /// Did not decode.
+    pub malformed: u64,
+    /// Another format version.
+    pub wrong_version: u64,
+    /// Not from the cluster their channel names, or not from a neighbour.
+    pub wrong_sender: u64,
+    /// Replays: a tick of the sender already taken.
+    pub replayed: u64,
+    /// Tagged further ahead than the sender could be.
+    pub implausible: u64,
+    /// Lost to a full receive buffer.
+    pub overflow: u64,
+    /// States ignored (claims on another cluster's entity, NaN, absurd values).
+    pub states_rejected: u64,
+}
+
+/// Routed ops, by what became of them.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct OpCounts {
+    /// Sent to an owner.
+    pub routed: u64,
+    /// Applied by it.
+    pub applied: u64,
+    /// Dropped: the receiver did not own the target.
+    pub dropped_not_owner: u64,
+    /// Dropped: invalid values.
+    pub dropped_invalid: u64,
+    /// Dropped: values beyond the bound.
+    pub dropped_absurd: u64,
+    /// Not sent: the owner was taken for dead.
+    pub dropped_owner_dead: u64,
+}
+
+impl OpCounts {
+    /// Routed and neither applied nor dropped by a receiver: in a frame lost to a full buffer or
+    /// an outage, or sent to a pod that died before applying it.
+    pub fn lost_in_transit(&self) -> u64 {
+        self.routed.saturating_sub(
+            self.applied + self.dropped_not_owner + self.dropped_invalid + self.dropped_absurd,
+        )
+    }
+}
+
+/// Deaths, adoptions and outages.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct RecoveryCounts {
+    /// Neighbours taken for dead.
+    pub neighbours_lost: u64,
+    /// Heard again.
+    pub neighbours_rejoined: u64,
+    /// Entities adopted from a dead neighbour.
+    pub entities_adopted: u64,
+    /// Handed back to a neighbour that returned claiming them.
+    pub entities_returned: u64,
+    /// Hand-offs a dead neighbour never took, taken back.
+    pub handoffs_reclaimed: u64,
+    /// Connections to the server lost.
+    pub disconnects: u64,
+    /// Re-established.
+    pub reconnects: u64,
+    /// Time without the server, summed over pods, s.
+    pub down_s: f64,
+    /// Publishes dropped meanwhile.
+    pub dropped_while_down: u64,
+}
+
+/// Everything `seam chaos` found.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChaosReport {
+    /// Scene name.
+    pub scene: String,
+    /// Pods.
+    pub pods: usize,
+    /// Transport URL.
+    pub transport: String,
+    /// Ticks per second.
+    pub rate_hz: f64,
+    /// Planned run, s.
+    pub duration_s: f64,
+    /// From launch to the end, s.
+    pub wall_s: f64,
+    /// Faults by kind.
+    pub faults: FaultCounts,
+    /// Faults not survived, and why.
+    pub failed_faults: Vec<String>,
+    /// Bad frames injected.
+    pub injected: InjectCounts,
+    /// Frames, every pod incarnation summed (the killed ones by their last progress line).
+    pub frames: FrameCounts,
+    /// Routed ops.
+    pub ops: OpCounts,
+    /// Deaths, adoptions, outages.
+    pub recovery: RecoveryCounts,
+    /// Every entity owned once at the end?
+    pub ownership: Ownership,
+    /// Panic messages on the pods' stderr.
+    pub panics: u64,
+    /// Pods that did not end well.
+    pub exited_badly: u64,
+    /// Anything else that went wrong.
+    pub problems: Vec<String>,
+    /// Memory of each pod after warm-up.
+    pub memory: Vec<MemoryRow>,
+}
+
+/// What [`ChaosReport::new`] is made from.
+pub(super) struct Inputs<'a> {
+    pub transport: String,
+    pub rate: f64,
+    pub duration_s: f64,
+    pub wall_s: f64,
+    pub faults: FaultCounts,
+    pub failed_faults: Vec<String>,
+    pub injected: InjectCounts,
+    pub reports: &'a [NodeReport],
+    pub dead_incarnations: &'a [NodeProgress],
+    pub panics: u64,
+    pub exited_badly: u64,
+    pub problems: Vec<String>,
+    pub memory: Vec<MemoryRow>,
+}
+
+impl ChaosReport {
+    pub(super) fn new(scene: &Scene, run_id: &str, inputs: Inputs<'_>) -> Self {
+        let incarnations: Vec<(&ClusterStats, &TransportCounts)> = inputs
+            .reports
+            .iter()
+            .map(|r| (&r.cluster_stats, &r.transport_stats))
+            .chain(
+                inputs
+                    .dead_incarnations
+                    .iter()
+                    .map(|p| (&p.cluster_stats, &p.transport_stats)),
+            )
+            .collect();
+        let mut frames = FrameCounts::default();
+        let mut ops = OpCounts::default();
+        let mut recovery = RecoveryCounts::default();
+        for (s, t) in incarnations {
+            frames.accepted += s.frames_accepted;
+            frames.malformed += s.frames_malformed + t.malformed_drops;
+            frames.wrong_version += s.frames_wrong_version;
+            frames.wrong_sender += s.frames_wrong_sender;
+            frames.replayed += s.frames_duplicate;
+            frames.implausible += s.frames_implausible;
+            frames.overflow += t.overflow_drops;
+            frames.states_rejected += s.states_rejected;
+            ops.routed += s.ops_routed;
+            ops.applied += s.ops_applied;
+            ops.dropped_not_owner += s.ops_dropped_not_owner;
+            ops.dropped_invalid += s.ops_dropped_invalid;
+            ops.dropped_absurd += s.ops_dropped_absurd;
+            ops.dropped_owner_dead += s.ops_dropped_owner_dead;
+            recovery.neighbours_lost += s.neighbours_lost;
+            recovery.neighbours_rejoined += s.neighbours_rejoined;
+            recovery.entities_adopted += s.entities_adopted;
+            recovery.entities_returned += s.entities_returned;
+            recovery.handoffs_reclaimed += s.handoffs_reclaimed;
+            recovery.disconnects += t.disconnects;
+            recovery.reconnects += t.reconnects;
+            recovery.down_s += t.down_ns as f64 / 1e9;
+            recovery.dropped_while_down += t.dropped_while_down;
+        }
+        Self {
+            scene: scene.name.clone(),
+            pods: scene.clusters.len(),
+            transport: inputs.transport,
+            rate_hz: inputs.rate,
+            duration_s: inputs.duration_s,
+            wall_s: inputs.wall_s,
+            faults: inputs.faults,
+            failed_faults: inputs.failed_faults,
+            injected: inputs.injected,
+            frames,
+            ops,
+            recovery,
+            ownership: ownership::check(scene, run_id, inputs.reports),
+            panics: inputs.panics,
+            exited_badly: inputs.exited_badly,
+            problems: inputs.problems,
+            memory: inputs.memory,
+        }
+    }
+
+    /// Garbage deliveries the pods refused as undecodable, other version or wrong sender.
+    pub fn garbage_refused(&self) -> u64 {
+        self.frames.malformed + self.frames.wrong_version + self.frames.wrong_sender
+    }
+
+    /// Whether every injected frame is accounted for: each garbage delivery refused, each
+    /// forged one seen as a replay.
+    pub fn accounted(&self) -> bool {
+        self.garbage_refused() == self.injected.garbage_deliveries
+            && self.frames.replayed == self.injected.forged_deliveries
+    }
+
+    /// Whether the run met every target: faults survived, every injected frame accounted for,
+    /// no entity lost or owned twice, no panic, every pod ended well.
+    pub fn holds(&self) -> bool {
+        self.faults.all_survived()
+            && self.failed_faults.is_empty()
+            && self.accounted()
+            && self.ownership.holds()
+            && self.panics == 0
+            && self.exited_badly == 0
+            && self.problems.is_empty()
+    }
+}
+
+/// The report as text.
+pub fn table(r: &ChaosReport) -> String {
+    let mut out = format!(
+        "seam chaos: {} ({} pods) on {}, {:.0} s at {} Hz ({:.1} s wall)\n\n",
+        r.scene, r.pods, r.transport, r.duration_s, r.rate_hz, r.wall_s
+    );
+    let f = &r.faults;
+    out += &format!("{:<34} {:>9} {:>9}\n", "fault", "injected", "survived");
+    for (name, n, ok) in [
+        ("kill (SIGKILL) + restart --rejoin", f.kill, f.kill_survived),
+        ("stop (SIGSTOP 1 s) + continue", f.stop, f.stop_survived),
+        (
+            "Redis server kill + restart",
+            f.redis_restart,
+            f.redis_restart_survived,
+        ),
+    ] {
+        out += &format!("{name:<34} {n:>9} {ok:>9}\n");
+    }
+    let i = &r.injected;
+    let mark = |ok: bool| if ok { "" } else { "  <-- MISMATCH" };
+    out += &format!(
+        "{:<34} {:>9} {:>9}  delivered {}, refused {}{}\n",
+        "garbage frames",
+        i.garbage_frames,
+        "-",
+        i.garbage_deliveries,
+        r.garbage_refused(),
+        mark(r.garbage_refused() == i.garbage_deliveries)
+    );
+    out += &format!(
+        "{:<34} {:>9} {:>9}  delivered {}, seen as replays {}{}\n\n",
+        "forged ownership claims",
+        i.forged_frames,
+        "-",
+        i.forged_deliveries,
+        r.frames.replayed,
+        mark(r.frames.replayed == i.forged_deliveries)
+    );
+    let o = &r.ownership;
+    out += &format!(
+        "entities: {} expected, {} owned once, {} lost, {} owned twice\n",
+        o.expected,
+        o.owned_once,
+        o.lost.len(),
+        o.duplicated.len()
+    );
+    let fr = &r.frames;
+    out += &format!(
+        "frames: {} taken; refused: {} undecodable, {} other version, {} wrong sender, {} \
+         replayed, {} implausible tick; {} lost to full buffers; {} states rejected\n",
+        fr.accepted,
+        fr.malformed,
+        fr.wrong_version,
+        fr.wrong_sender,
+        fr.replayed,
+        fr.implausible,
+        fr.overflow,
+        fr.states_rejected
+    );
+    let op = &r.ops;
+    out += &format!(
+        "ops: {} routed, {} applied; dropped: {} not owner, {} invalid, {} absurd, {} owner \
+         dead; {} lost with a pod that died or a frame that never arrived\n",
+        op.routed,
+        op.applied,
+        op.dropped_not_owner,
+        op.dropped_invalid,
+        op.dropped_absurd,
+        op.dropped_owner_dead,
+        op.lost_in_transit()
+    );
+    let rc = &r.recovery;
+    out += &format!(
+        "recovery: {} neighbours taken for dead, {} rejoined; {} entities adopted, {} returned, \
+         {} hand-offs reclaimed; {} disconnects, {} reconnects, {:.1} s down (pods summed), {} \
+         publishes dropped while down\n",
+        rc.neighbours_lost,
+        rc.neighbours_rejoined,
+        rc.entities_adopted,
+        rc.entities_returned,
+        rc.handoffs_reclaimed,
+        rc.disconnects,
+        rc.reconnects,
+        rc.down_s,
+        rc.dropped_while_down
+    );
+    out += &format!(
+        "panics: {}; pods that ended badly: {}\n\n",
+        r.panics, r.exited_badly
+    );
+    out += &format!(
+        "{:<12} {:>9} {:>12} {:>12} {:>9}\n",
+        "memory", "warm-up s", "base KiB", "max KiB", "growth"
+    );
+    for m in &r.memory {
+        let growth = m
+            .growth_pct
+            .map_or("-".to_owned(), |g| format!("{g:+.1} %"));
+        out += &format!(
+            "{:<12} {:>9.0} {:>12} {:>12} {:>9}\n",
+            m.pod, m.warmup_s, m.base_kib, m.max_kib, growth
+        );
+    }
+    for problem in r.failed_faults.iter().chain(&r.problems) {
+        out += &format!("problem: {problem}\n");
+    }
+    out += if r.holds() {
+        "\nresult: every target held\n"
+    } else {
+        "\nresult: FAILED (see above)\n"
+    };
+    out
+}

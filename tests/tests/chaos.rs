@@ -1,0 +1,56 @@
+//! `seam chaos` end to end, short: crossfire pods over shared memory and over a private Redis
+//! server, killed and restarted, stopped and continued, the server restarted, garbage and
+//! forged frames in every channel — and every target holds.
+
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use seam_bench::chaos::{self, ChaosPlan, ChaosReport};
+use seam_tests::{private_redis, scene_path};
+
+fn chaos_run(redis: bool) -> ChaosReport {
+    let plan = ChaosPlan {
+        scene: scene_path("crossfire.toml"),
+        redis,
+        rate: 60.0,
+        duration: Duration::from_secs(20),
+        fault_every: Duration::from_secs(2),
+        layers: 1,
+        seed: 7,
+        node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
+    };
+    chaos::run(&plan, &AtomicBool::new(false), |_| {}).expect("seam chaos runs")
+}
+
+fn assert_held(report: &ChaosReport) {
+    let table = chaos::table(report);
+    assert!(report.holds(), "{table}");
+    assert!(
+        report.faults.kill >= 1 && report.faults.stop >= 1,
+        "{table}"
+    );
+    assert!(report.injected.garbage_deliveries > 0, "{table}");
+    assert!(report.injected.forged_deliveries > 0, "{table}");
+    assert!(report.recovery.entities_adopted > 0, "{table}");
+}
+
+#[test]
+fn chaos_on_shared_memory_loses_nothing() {
+    assert_held(&chaos_run(false));
+}
+
+#[test]
+fn chaos_on_redis_loses_nothing() {
+    // Only to see whether a private server can start here.
+    if private_redis().is_none() {
+        return;
+    }
+    let report = chaos_run(true);
+    assert_held(&report);
+    assert!(
+        report.faults.redis_restart >= 1,
+        "{}",
+        chaos::table(&report)
+    );
+    assert!(report.recovery.reconnects >= 1);
+}
