@@ -118,8 +118,9 @@ enum Command {
     /// The pods run as in `seam run`, on shared memory under a private prefix or, with
     /// `--transport redis`, on a private redis-server this command starts and restarts. Every
     /// `--fault-every-s` one fault in turn: a pod killed with SIGKILL and restarted 2 s later
-    /// with `--rejoin`; a pod stopped with SIGSTOP for 1 s; the Redis server killed for 1 s
-    /// and restarted (Redis only). Between faults, garbage and forged frames go into every
+    /// with `--rejoin` (in the first half of the run only, so every pod's last incarnation
+    /// lives long enough to judge its memory); the Redis server killed for 1 s and restarted
+    /// (Redis only); a pod stopped with SIGSTOP for 1 s. Between faults, garbage and forged frames go into every
     /// channel four times a second. Prints faults injected and survived, injected frames
     /// against the pods' refusal counters, entities lost or owned twice, ops and frames dropped
     /// by reason, adoptions, outages, panics, and each pod's memory after warm-up. Exits with

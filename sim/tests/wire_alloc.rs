@@ -1,18 +1,27 @@
 //! A forged list length cannot make decoding allocate more than the input justifies.
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::cell::Cell;
 
 use seam_sim::wire::{self, ReplicationFrame, WIRE_VERSION};
 
 struct Counting;
-static ALLOCATED: AtomicUsize = AtomicUsize::new(0);
+
+thread_local! {
+    /// Bytes allocated by this thread: the test harness and the other test allocate on other
+    /// threads meanwhile, and must not count.
+    static ALLOCATED: Cell<usize> = const { Cell::new(0) };
+}
+
+fn allocated() -> usize {
+    ALLOCATED.with(Cell::get)
+}
 
 // SAFETY: forwards every call to the system allocator; only counts bytes on the side.
 #[allow(unsafe_code)]
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATED.fetch_add(layout.size(), Ordering::Relaxed);
+        ALLOCATED.with(|a| a.set(a.get() + layout.size()));
         // SAFETY: same contract as the caller's.
         unsafe { System.alloc(layout) }
     }
@@ -25,6 +34,7 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
 
+
 #[test]
 fn forged_length_allocates_nothing_big() {
     // version, `from` (16 bytes), tick 0, then a list length of u32::MAX and no elements.
@@ -32,9 +42,9 @@ fn forged_length_allocates_nothing_big() {
     bytes.extend_from_slice(&[0u8; 16]);
     bytes.push(0);
     bytes.extend_from_slice(&[0xFF, 0xFF, 0xFF, 0xFF, 0x0F]);
-    let before = ALLOCATED.load(Ordering::Relaxed);
+    let before = allocated();
     let result = wire::decode::<ReplicationFrame>(&bytes);
-    let allocated = ALLOCATED.load(Ordering::Relaxed) - before;
+    let allocated = allocated() - before;
     assert!(result.is_err(), "4 billion states from 23 bytes");
     // The error message itself allocates a little; a preallocated list would be gigabytes.
     assert!(
@@ -53,9 +63,9 @@ fn plausible_length_allocates_in_proportion_to_what_decodes() {
     bytes.push(0);
     bytes.extend_from_slice(&[0xD0, 0x0F]); // 2000 as a varint
     bytes.extend(std::iter::repeat_n(0u8, 2000));
-    let before = ALLOCATED.load(Ordering::Relaxed);
+    let before = allocated();
     let result = wire::decode::<ReplicationFrame>(&bytes);
-    let allocated = ALLOCATED.load(Ordering::Relaxed) - before;
+    let allocated = allocated() - before;
     assert!(result.is_err(), "the input runs out");
     assert!(
         allocated < 8 * bytes.len(),

@@ -223,6 +223,7 @@ fn a_killed_pod_restarts_and_rejoins() {
         west.cluster_stats.entities_returned, adopted,
         "west handed east's entities back when it rejoined"
     );
-    assert_eq!(east.cluster_stats.handoffs_in, adopted);
+    // East takes them all in (and the scene's own hand-off to it, if that came after).
+    assert!(east.cluster_stats.handoffs_in >= adopted);
     assert_ownership(&scene, &run_id, &[west, east]);
 }
