@@ -89,7 +89,7 @@ enum Command {
     /// per proxy mode at the shortest and longest interval, compared by hits and final
     /// positions, with routed-op latency. Writes
     /// OUT/sweep.csv (one row per trial, every metric) and, as SVG and PNG,
-    /// OUT/accuracy_vs_cost (Pareto front marked) and OUT/hit_recall_vs_speed_<mode>.
+    /// OUT/accuracy_vs_cost (Pareto front marked) and OUT/hit_recall_vs_speed_{fixed,kinematic}.
     Sweep {
         /// Scene files (default: bench/scenes/gallery.toml and bench/scenes/crossfire.toml).
         #[arg(long = "scene")]

@@ -34,7 +34,6 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
 
-
 #[test]
 fn forged_length_allocates_nothing_big() {
     // version, `from` (16 bytes), tick 0, then a list length of u32::MAX and no elements.

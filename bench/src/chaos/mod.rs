@@ -15,7 +15,7 @@
 //! fault starts in the last 9 s, so the run ends calm.
 //!
 //! Between faults, every 250 ms, bursts of garbage and forged frames go into every channel
-//! ([`inject`]); none in the second before a fault, so every injected frame has been counted by
+//! ([`Injector`]); none in the second before a fault, so every injected frame has been counted by
 //! a pod that is still there to report it. A fault is *survived* when every pod has shown
 //! progress again within 5 s of its end. At the end: faults by kind, injected frames against
 //! the pods' refusal counters, entities lost or owned twice, ops and frames dropped by reason,

@@ -287,6 +287,22 @@ pub fn table(report: &RunReport) -> String {
         t.overruns,
         t.neighbours_lost
     );
+    for p in report
+        .pods
+        .iter()
+        .filter(|p| p.transport_stats.disconnects > 0)
+    {
+        let t = &p.transport_stats;
+        out += &format!(
+            "outage: {} lost its server {} time(s), reconnected {}, {:.2} s down, {} publishes \
+             dropped\n",
+            p.cluster,
+            t.disconnects,
+            t.reconnects,
+            t.down_ns as f64 / 1e9,
+            t.dropped_while_down
+        );
+    }
     let o = &report.ownership;
     out += &format!(
         "ownership: {} entities expected, {} owned by exactly one pod, {} lost, {} owned twice{}\n",
