@@ -106,6 +106,9 @@ pub struct Cluster {
     adopted: IdMap<EntityId, ClusterId>,
     /// Whether the transport was connected at the last liveness check.
     transport_was_up: bool,
+    /// Ticking free-running (`tick`, `wait`) rather than in lock-step: the inbox then keeps
+    /// one replication frame per neighbour.
+    free_running: bool,
 }
 
 impl Cluster {
@@ -161,6 +164,7 @@ impl Cluster {
             last_states: IdMap::default(),
             adopted: IdMap::default(),
             transport_was_up: true,
+            free_running: false,
         })
     }
 
@@ -276,6 +280,7 @@ impl Cluster {
         &mut self,
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
+        self.free_running = true;
         self.drain()?;
         self.check_liveness();
         let frames = self.inbox.take_all();
@@ -485,6 +490,7 @@ impl Cluster {
         timeout: Duration,
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
+        self.free_running = false;
         let tick = self.sim.tick();
         if tick > 0 {
             let replication = tick.is_multiple_of(self.config.replication_interval);
@@ -520,6 +526,7 @@ impl Cluster {
     /// Returns whether anything arrived. Free-running pods call this between ticks, so frames
     /// are taken off the transport as they come and stamped "received" when they arrive.
     pub fn wait(&mut self, timeout: Duration) -> Result<bool, ClusterError> {
+        self.free_running = true;
         let Some(message) = self.transport.receive_timeout(timeout)? else {
             return Ok(false);
         };
@@ -550,7 +557,12 @@ impl Cluster {
             Ok(frame) if self.replayed(frame.from(), frame.tick(), frame.is_replication()) => None,
             Ok(Frame::Replication(frame)) if self.config.neighbours.contains(&frame.from) => {
                 let from = (frame.from, frame.tick, true);
-                self.inbox.add_replication(frame).then_some(from)
+                let kept = if self.free_running {
+                    self.inbox.add_replication_newest(frame)
+                } else {
+                    self.inbox.add_replication(frame)
+                };
+                kept.then_some(from)
             }
             Ok(Frame::Events(frame)) if self.config.neighbours.contains(&frame.from) => {
                 let from = (frame.from, frame.tick, false);

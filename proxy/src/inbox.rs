@@ -39,6 +39,35 @@ impl Inbox {
         }
     }
 
+    /// Keeps a replication frame in place of any other of the same sender (free-running): of
+    /// the two, the newer stays, carrying the hand-offs of the older (see [`Self::take_all`]).
+    /// However long a backlog (a pod resuming after a stall reads everything Redis kept for
+    /// it), the inbox holds one replication frame per sender. Returns whether it was kept (a
+    /// frame of a tick already kept is not).
+    pub(crate) fn add_replication_newest(&mut self, frame: ReplicationFrame) -> bool {
+        if self.replication.contains_key(&(frame.tick, frame.from)) {
+            return false;
+        }
+        let from = frame.from;
+        let kept: Vec<(u64, ClusterId)> = self
+            .replication
+            .keys()
+            .filter(|(_, sender)| *sender == from)
+            .copied()
+            .collect();
+        let mut newest = frame;
+        for key in kept {
+            if let Some(mut other) = self.replication.remove(&key) {
+                if other.tick > newest.tick {
+                    std::mem::swap(&mut other, &mut newest);
+                }
+                carry_handoffs(other, &mut newest);
+            }
+        }
+        self.replication.insert((newest.tick, from), newest);
+        true
+    }
+
     /// Keeps an events frame received at `received_ns`, the first of each sender and tick as
     /// for replication. Returns whether it was kept.
     pub(crate) fn add_events(&mut self, frame: PhysicsEventsFrame, received_ns: u64) -> bool {
@@ -97,19 +126,24 @@ impl Inbox {
             let Some(older) = newest.insert(from, frame) else {
                 continue;
             };
-            let Some(newer) = newest.get_mut(&from) else {
-                continue;
-            };
-            for state in older.states {
-                let handed = state.cluster_id != older.from;
-                if handed && !newer.states.iter().any(|s| s.id == state.id) {
-                    newer.states.push(state);
-                }
+            if let Some(newer) = newest.get_mut(&from) {
+                carry_handoffs(older, newer);
             }
         }
         TickFrames {
             replication: newest.into_values().collect(),
             events: std::mem::take(&mut self.events).into_values().collect(),
+        }
+    }
+}
+
+/// Moves the hand-offs of `older` that `newer` does not list into `newer`: the old owner stops
+/// listing an entity once it has handed it over, so dropping that frame would lose the entity.
+fn carry_handoffs(older: ReplicationFrame, newer: &mut ReplicationFrame) {
+    for state in older.states {
+        let handed = state.cluster_id != older.from;
+        if handed && !newer.states.iter().any(|s| s.id == state.id) {
+            newer.states.push(state);
         }
     }
 }
@@ -135,6 +169,40 @@ mod tests {
                 ccd: false,
             },
         }
+    }
+
+    #[test]
+    fn free_running_keeps_one_frame_per_sender_with_its_handoffs() {
+        let (a, b) = (ClusterId::random(), ClusterId::random());
+        let (kept, handed) = (EntityId::random(), EntityId::random());
+        let mut inbox = Inbox::default();
+        assert!(inbox.add_replication_newest(ReplicationFrame {
+            from: a,
+            tick: 7,
+            states: vec![state(kept, a, 1.0), state(handed, b, 2.0)],
+        }));
+        for tick in 8..100 {
+            assert!(inbox.add_replication_newest(ReplicationFrame {
+                from: a,
+                tick,
+                states: vec![state(kept, a, tick as f32)],
+            }));
+            assert_eq!(
+                inbox.replication.len(),
+                1,
+                "one frame held, however long the backlog"
+            );
+        }
+        assert!(!inbox.add_replication_newest(ReplicationFrame {
+            from: a,
+            tick: 99,
+            states: Vec::new(),
+        }));
+        let frames = inbox.take_all();
+        let newest = &frames.replication[0];
+        assert_eq!(newest.tick, 99);
+        assert_eq!(newest.states[0].position[0], 99.0);
+        assert_eq!(newest.states[1].id, handed, "the hand-off rode along");
     }
 
     #[test]

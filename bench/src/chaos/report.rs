@@ -51,10 +51,18 @@ pub struct MemoryRow {
     pub warmup_s: f64,
     /// RSS at the end of warm-up, KiB.
     pub base_kib: u64,
-    /// Largest RSS after warm-up, KiB.
+    /// Largest RSS after warm-up, KiB (a pod adopting a stopped neighbour's entities holds
+    /// more bodies for a while).
     pub max_kib: u64,
-    /// Growth of the largest over the base, percent (`None`: the incarnation lived too short).
+    /// RSS at the last sample, KiB.
+    pub end_kib: u64,
+    /// Growth of the last sample over the base, percent (`None`: the incarnation lived too
+    /// short to judge).
     pub growth_pct: Option<f64>,
+    /// Growth of the largest over the base, percent.
+    pub peak_growth_pct: Option<f64>,
+    /// One sample every 30 s of the incarnation's life: (seconds since launch, KiB).
+    pub series_kib: Vec<(f64, u64)>,
 }
 
 impl MemoryRow {
@@ -71,14 +79,27 @@ impl MemoryRow {
         let lived = samples.last().map_or(0.0, |s| s.0) - first;
         let base_kib = after.first().copied().unwrap_or(0);
         let max_kib = after.iter().copied().max().unwrap_or(0);
-        let growth_pct = (lived >= warmup_s + 10.0 && base_kib > 0)
-            .then(|| (max_kib as f64 - base_kib as f64) / base_kib as f64 * 100.0);
+        let end_kib = after.last().copied().unwrap_or(0);
+        let judged = lived >= warmup_s + 10.0 && base_kib > 0;
+        let growth = |kib: u64| (kib as f64 - base_kib as f64) / base_kib as f64 * 100.0;
+        let mut series_kib = Vec::new();
+        for &(t, kib) in samples {
+            if series_kib
+                .last()
+                .is_none_or(|&(last, _): &(f64, u64)| t - last >= 30.0)
+            {
+                series_kib.push((t, kib));
+            }
+        }
         Self {
             pod: pod.to_owned(),
             warmup_s,
             base_kib,
             max_kib,
-            growth_pct,
+            end_kib,
+            growth_pct: judged.then(|| growth(end_kib)),
+            peak_growth_pct: judged.then(|| growth(max_kib)),
+            series_kib,
         }
     }
 }
@@ -389,18 +410,24 @@ pub fn table(r: &ChaosReport) -> String {
         r.panics, r.exited_badly
     );
     out += &format!(
-        "{:<12} {:>9} {:>12} {:>12} {:>9}\n",
-        "memory", "warm-up s", "base KiB", "max KiB", "growth"
+        "{:<12} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9}\n",
+        "memory", "warm-up s", "base KiB", "end KiB", "peak KiB", "growth", "peak"
     );
+    let percent = |g: Option<f64>| g.map_or("-".to_owned(), |g| format!("{g:+.1} %"));
     for m in &r.memory {
-        let growth = m
-            .growth_pct
-            .map_or("-".to_owned(), |g| format!("{g:+.1} %"));
         out += &format!(
-            "{:<12} {:>9.0} {:>12} {:>12} {:>9}\n",
-            m.pod, m.warmup_s, m.base_kib, m.max_kib, growth
+            "{:<12} {:>9.0} {:>10} {:>10} {:>10} {:>9} {:>9}\n",
+            m.pod,
+            m.warmup_s,
+            m.base_kib,
+            m.end_kib,
+            m.max_kib,
+            percent(m.growth_pct),
+            percent(m.peak_growth_pct)
         );
     }
+    out += "growth = end of run over end of warm-up; peak = largest sample over it (adopting a \
+            stopped neighbour's entities holds more bodies for a while)\n";
     for problem in r.failed_faults.iter().chain(&r.problems) {
         out += &format!("problem: {problem}\n");
     }
