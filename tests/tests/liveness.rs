@@ -81,6 +81,44 @@ fn a_silent_neighbour_is_dropped_and_rejoins() {
 
 const NODE: &str = env!("CARGO_BIN_EXE_seam-test-node");
 
+/// `crossfire`'s pods on a fresh shm prefix, tick 0 half a second from now.
+struct Crossfire {
+    ctx: TestContext,
+    scene: std::path::PathBuf,
+    run_id: String,
+    start_at: u64,
+}
+
+impl Crossfire {
+    fn new(tag: &str) -> Option<Self> {
+        Some(Self {
+            ctx: TestContext::new(Backend::Shm)?,
+            scene: scene_path("crossfire.toml"),
+            run_id: format!("{tag}{}", std::process::id()),
+            start_at: monotonic_ns() + 500_000_000,
+        })
+    }
+
+    /// Starts the pod of `cluster` with `extra` flags.
+    fn pod(&self, cluster: &str, extra: &[&str]) -> Child {
+        let url = self.ctx.url();
+        start_pod(
+            NODE,
+            &self.scene,
+            cluster,
+            &url,
+            &self.run_id,
+            self.start_at,
+            extra,
+        )
+    }
+
+    /// Checks that every entity of the run ended with exactly one owner.
+    fn assert_ownership(&self, reports: &[NodeReport]) {
+        assert_ownership(&self.scene, &self.run_id, reports);
+    }
+}
+
 /// Checks that every entity of the run ended with exactly one owner.
 fn assert_ownership(scene: &std::path::Path, run_id: &str, reports: &[NodeReport]) {
     let scene = seam_bench::scene::load(scene).expect("scene");
@@ -94,14 +132,11 @@ fn assert_ownership(scene: &std::path::Path, run_id: &str, reports: &[NodeReport
 /// (counted), and after SIGCONT it catches up and runs every tick.
 #[test]
 fn a_stopped_pod_costs_counted_drops_and_catches_up() {
-    let Some(ctx) = TestContext::new(Backend::Shm) else {
+    let Some(run) = Crossfire::new("stop") else {
         return;
     };
-    let scene = scene_path("crossfire.toml");
-    let run_id = format!("stop{}", std::process::id());
-    let start_at = monotonic_ns() + 500_000_000;
-    let west = start_pod(NODE, &scene, "west", &ctx.url(), &run_id, start_at, &[]);
-    let east = start_pod(NODE, &scene, "east", &ctx.url(), &run_id, start_at, &[]);
+    let west = run.pod("west", &[]);
+    let east = run.pod("east", &[]);
     std::thread::sleep(Duration::from_millis(1200));
     let signal = |child: &Child, signal: Signal| {
         let pid = Pid::from_raw(child.id() as i32).expect("a pid");
@@ -145,7 +180,7 @@ fn a_stopped_pod_costs_counted_drops_and_catches_up() {
     let adopted = west.cluster_stats.entities_adopted;
     assert!(adopted > 0, "west adopted east's entities");
     assert_eq!(west.cluster_stats.entities_returned, adopted);
-    assert_ownership(&scene, &run_id, &[west, east]);
+    run.assert_ownership(&[west, east]);
 }
 
 /// Two `crossfire` pods over shared memory; east is killed with SIGKILL a second in. West keeps
@@ -153,14 +188,11 @@ fn a_stopped_pod_costs_counted_drops_and_catches_up() {
 /// is left), and reports it.
 #[test]
 fn a_killed_pod_is_taken_for_dead_by_its_neighbour() {
-    let Some(ctx) = TestContext::new(Backend::Shm) else {
+    let Some(run) = Crossfire::new("live") else {
         return;
     };
-    let scene = scene_path("crossfire.toml");
-    let run_id = format!("live{}", std::process::id());
-    let start_at = monotonic_ns() + 500_000_000;
-    let west = start_pod(NODE, &scene, "west", &ctx.url(), &run_id, start_at, &[]);
-    let mut east = start_pod(NODE, &scene, "east", &ctx.url(), &run_id, start_at, &[]);
+    let west = run.pod("west", &[]);
+    let mut east = run.pod("east", &[]);
     std::thread::sleep(Duration::from_millis(1500));
     east.kill().expect("SIGKILL east");
     east.wait().expect("east is gone");
@@ -176,7 +208,7 @@ fn a_killed_pod_is_taken_for_dead_by_its_neighbour() {
     );
     assert_eq!(report.proxies, 0, "east's proxies became west's own");
     assert!(report.cluster_stats.entities_adopted > 0);
-    assert_ownership(&scene, &run_id, &[report]);
+    run.assert_ownership(&[report]);
 }
 
 /// East is killed, and restarted with `--rejoin` two seconds later: west takes it for dead and
@@ -185,27 +217,16 @@ fn a_killed_pod_is_taken_for_dead_by_its_neighbour() {
 /// ends with one owner.
 #[test]
 fn a_killed_pod_restarts_and_rejoins() {
-    let Some(ctx) = TestContext::new(Backend::Shm) else {
+    let Some(run) = Crossfire::new("rejoin") else {
         return;
     };
-    let scene = scene_path("crossfire.toml");
-    let run_id = format!("rejoin{}", std::process::id());
-    let start_at = monotonic_ns() + 500_000_000;
-    let west = start_pod(NODE, &scene, "west", &ctx.url(), &run_id, start_at, &[]);
-    let mut east = start_pod(NODE, &scene, "east", &ctx.url(), &run_id, start_at, &[]);
+    let west = run.pod("west", &[]);
+    let mut east = run.pod("east", &[]);
     std::thread::sleep(Duration::from_millis(1200));
     east.kill().expect("SIGKILL east");
     east.wait().expect("east is gone");
     std::thread::sleep(Duration::from_millis(800));
-    let east = start_pod(
-        NODE,
-        &scene,
-        "east",
-        &ctx.url(),
-        &run_id,
-        start_at,
-        &["--rejoin"],
-    );
+    let east = run.pod("east", &["--rejoin"]);
     let (_, west) = finish_pod(west);
     let (_, east) = finish_pod(east);
     assert_eq!(west.ticks, 480);
@@ -225,5 +246,5 @@ fn a_killed_pod_restarts_and_rejoins() {
     );
     // East takes them all in (and the scene's own hand-off to it, if that came after).
     assert!(east.cluster_stats.handoffs_in >= adopted);
-    assert_ownership(&scene, &run_id, &[west, east]);
+    run.assert_ownership(&[west, east]);
 }
