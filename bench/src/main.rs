@@ -483,7 +483,7 @@ fn main() -> ExitCode {
             start_delay: std::time::Duration::from_millis(750),
             in_phase,
         })
-        .map(|report| {
+        .and_then(|report| {
             if json {
                 println!(
                     "{}",
@@ -491,6 +491,15 @@ fn main() -> ExitCode {
                 );
             } else {
                 print!("{}", run::table(&report));
+            }
+            if report.ownership.holds() {
+                Ok(())
+            } else {
+                Err(format!(
+                    "seam run: {} entities lost and {} owned twice at the end (see the report)",
+                    report.ownership.lost.len(),
+                    report.ownership.duplicated.len()
+                ))
             }
         }),
         Command::Compare { scene, knobs, json } => seam_bench::scene::load(&scene)

@@ -688,7 +688,11 @@ impl Cluster {
         let (me, from) = (self.config.cluster_id, frame.from);
         let mut listed: IdMap<EntityId, ()> = IdMap::default();
         for state in &frame.states {
-            if !within(state.position, self.config.max_magnitude) {
+            let limit = self.config.max_magnitude;
+            if ![state.position, state.linvel, state.angvel]
+                .into_iter()
+                .all(|v| within(v, limit))
+            {
                 self.stats.states_rejected += 1;
                 continue;
             }

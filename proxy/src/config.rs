@@ -89,7 +89,8 @@ pub struct ClusterConfig {
     /// (free-running ticks only; lock-step waits for it instead). 0 never gives up.
     pub neighbour_timeout_ticks: u64,
     /// Largest magnitude accepted from another cluster for any coordinate of a replicated
-    /// position or any component of a routed op (metres, m/s, N, N·s): beyond it the state or
+    /// position, any component of a replicated velocity, or any component of a routed op
+    /// (metres, m/s, rad/s, N, N·s): beyond it the state or
     /// op is dropped and counted, so a peer cannot move a body a light-year away or give it an
     /// absurd impulse.
     pub max_magnitude: f32,

@@ -90,7 +90,13 @@ fn crossfire_pods_cross_the_seam(ctx: &TestContext) {
     assert_eq!(east.cluster_stats.handoffs_in, 1, "{text}");
     assert_eq!(east.entities_owned, east.entities_at_start + 1, "{text}");
 
-    // Nothing lost: everything spawned or fired is owned by exactly one pod at the end.
+    // Nothing lost: everything spawned or fired is owned by exactly one pod at the end, each
+    // entity checked by id (a count would let one lost and one doubled entity cancel out).
+    assert!(report.ownership.holds(), "{:?}\n{text}", report.ownership);
+    assert_eq!(
+        report.ownership.owned_once, report.ownership.expected,
+        "{text}"
+    );
     assert_eq!(
         report.totals.entities_owned, report.totals.entities_expected,
         "{text}"

@@ -20,6 +20,12 @@
 //! progress again within 5 s of its end. At the end: faults by kind, injected frames against
 //! the pods' refusal counters, entities lost or owned twice, ops and frames dropped by reason,
 //! adoption, outages, panics, and each pod's memory after warm-up.
+//!
+//! The run fails (see [`ChaosReport::holds`]) on anything chaos did not cause: a pod found
+//! dead when it was picked for a kill, a pod that ended badly or sent no report, a panic on a
+//! pod's stderr (counted after every reader has read to the end); and when a planned fault
+//! kind was never injected, when the run outlives its deadline (the pods are then killed), when
+//! adoptions and returns do not balance, or when a pod's memory grows past its bound.
 
 mod inject;
 mod report;
@@ -32,6 +38,7 @@ use std::process::Child;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc;
+use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use rustix::process::{Pid, Signal, kill_process};
@@ -42,7 +49,7 @@ use crate::pod::SceneIds;
 use crate::redis_server::RedisServer;
 use crate::run::{PodLaunch, PodLine, RunPlan, fresh_run_id, spawn_pod};
 pub use inject::{InjectCounts, Injector};
-pub use report::{ChaosReport, FaultCounts, MemoryRow, table};
+pub use report::{ChaosReport, FaultCounts, MEMORY_BOUND_PCT, MemoryRow, MemorySample, table};
 
 /// What `seam chaos` runs.
 pub struct ChaosPlan {
@@ -89,8 +96,8 @@ struct PodState {
     start_at: u64,
     child: Option<Child>,
     latest: Option<(Instant, NodeProgress)>,
-    /// (seconds since launch, RSS KiB) of the current incarnation.
-    memory: Vec<(f64, u64)>,
+    /// Memory samples of the current incarnation.
+    memory: Vec<MemorySample>,
     report: Option<NodeReport>,
 }
 
@@ -100,6 +107,22 @@ const REDIS_DOWN_FOR: Duration = Duration::from_secs(1);
 const BURST_EVERY: Duration = Duration::from_millis(250);
 const QUIET_BEFORE_FAULT: Duration = Duration::from_secs(1);
 const SURVIVE_WITHIN: Duration = Duration::from_secs(5);
+/// Time the run may take beyond its planned length before its pods are killed and it fails:
+/// pods catch up after a stop on their shared schedule, so a healthy run ends within seconds.
+const DEADLINE_SLACK: Duration = Duration::from_secs(60);
+
+impl Drop for PodState {
+    /// A run that ends early (an error, the deadline) leaves no pod behind.
+    fn drop(&mut self) {
+        if let Some(child) = &mut self.child
+            && let Ok(None) = child.try_wait()
+        {
+            signal(child, Signal::CONT);
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
 
 fn signal(child: &Child, signal: Signal) {
     if let Some(pid) = Pid::from_raw(child.id() as i32) {
@@ -107,18 +130,18 @@ fn signal(child: &Child, signal: Signal) {
     }
 }
 
-/// Forwards a pod's stderr to this one's, prefixed, counting panic messages.
-fn watch_stderr(child: &mut Child, name: String, panics: Arc<AtomicU64>) {
-    if let Some(stderr) = child.stderr.take() {
-        std::thread::spawn(move || {
-            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                if line.contains("panicked at") {
-                    panics.fetch_add(1, Ordering::Relaxed);
-                }
-                eprintln!("[{name}] {line}");
+/// Forwards a pod's stderr to this one's, prefixed, counting panic messages; the thread ends
+/// when the pod's stderr closes.
+fn watch_stderr(child: &mut Child, name: String, panics: Arc<AtomicU64>) -> Option<JoinHandle<()>> {
+    let stderr = child.stderr.take()?;
+    Some(std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if line.contains("panicked at") {
+                panics.fetch_add(1, Ordering::Relaxed);
             }
-        });
-    }
+            eprintln!("[{name}] {line}");
+        }
+    }))
 }
 
 /// Runs the plan; `progress` gets a line about once a second.
@@ -163,7 +186,12 @@ pub fn run(
     let launched = Instant::now();
     let n = scene.clusters.len();
     let mut pods: Vec<PodState> = Vec::new();
-    let launch = |pods: &mut Vec<PodState>, index: usize, rejoin: bool| -> Result<(), String> {
+    let mut readers: Vec<JoinHandle<()>> = Vec::new();
+    let launch = |pods: &mut Vec<PodState>,
+                  readers: &mut Vec<JoinHandle<()>>,
+                  index: usize,
+                  rejoin: bool|
+     -> Result<(), String> {
         let pod = &mut pods[index];
         let mut child = spawn_pod(
             &run_plan,
@@ -177,7 +205,11 @@ pub fn run(
             },
             &lines,
         )?;
-        watch_stderr(&mut child, pod.name.clone(), Arc::clone(&panics));
+        readers.extend(watch_stderr(
+            &mut child,
+            pod.name.clone(),
+            Arc::clone(&panics),
+        ));
         pod.child = Some(child);
         pod.latest = None;
         pod.memory.clear();
@@ -192,7 +224,7 @@ pub fn run(
             memory: Vec::new(),
             report: None,
         });
-        launch(&mut pods, index, false)?;
+        launch(&mut pods, &mut readers, index, false)?;
     }
     let ids = SceneIds::new(&run_id, &scene.name);
     let clusters = scene
@@ -221,6 +253,7 @@ pub fn run(
             .duration
             .saturating_sub(KILLED_FOR + SURVIVE_WITHIN + Duration::from_secs(2));
     let kills_until = launched + run_plan.start_delay + plan.duration / 2;
+    let deadline = launched + run_plan.start_delay + plan.duration + DEADLINE_SLACK;
     let mut phase = Phase::Calm(first_fault);
     let mut faults = FaultCounts::default();
     let mut pending_survival: Option<(Fault, Instant)> = None;
@@ -234,8 +267,10 @@ pub fn run(
         |pods: &mut Vec<PodState>, (index, line): PodLine, problems: &mut Vec<String>| match line {
             Ok(NodeLine::Progress(p)) => {
                 let pod = &mut pods[index];
-                pod.memory
-                    .push((launched.elapsed().as_secs_f64(), p.rss_kib));
+                pod.memory.push(MemorySample {
+                    at_s: launched.elapsed().as_secs_f64(),
+                    rss_kib: p.rss_kib,
+                });
                 pod.latest = Some((Instant::now(), *p));
             }
             Ok(NodeLine::Report(r)) => pods[index].report = Some(*r),
@@ -255,6 +290,27 @@ pub fn run(
             // Let the readers deliver the last lines.
             while let Ok(line) = incoming.recv_timeout(Duration::from_millis(200)) {
                 take(&mut pods, line, &mut problems);
+            }
+            break;
+        }
+        if Instant::now() > deadline {
+            let mut running = Vec::new();
+            for pod in &mut pods {
+                if let Some(child) = &mut pod.child
+                    && matches!(child.try_wait(), Ok(None))
+                {
+                    running.push(pod.name.clone());
+                }
+            }
+            problems.push(format!(
+                "deadline: {:.0} s after launch, pods {running:?} still ran; killed",
+                launched.elapsed().as_secs_f64()
+            ));
+            for pod in &mut pods {
+                if let Some(child) = &mut pod.child {
+                    signal(child, Signal::CONT);
+                    let _ = child.kill();
+                }
             }
             break;
         }
@@ -308,7 +364,19 @@ pub fn run(
                     match fault {
                         Fault::Kill => {
                             if let Some(mut child) = pods[index].child.take() {
-                                let _ = child.kill();
+                                // A pod that is already gone died of something else.
+                                match child.try_wait() {
+                                    Ok(None) => {
+                                        let _ = child.kill();
+                                    }
+                                    Ok(Some(status)) => problems.push(format!(
+                                        "pod {:?} had exited ({status}) when picked for a kill",
+                                        pods[index].name
+                                    )),
+                                    Err(e) => {
+                                        problems.push(format!("pod {:?}: {e}", pods[index].name))
+                                    }
+                                }
                                 let _ = child.wait();
                             }
                             // The dead incarnation's last counters: read what it wrote.
@@ -344,7 +412,7 @@ pub fn run(
                 }
             }
             Phase::Killed(index, until) if now >= until => {
-                launch(&mut pods, index, true)?;
+                launch(&mut pods, &mut readers, index, true)?;
                 pending_survival = Some((Fault::Kill, now));
                 Phase::Calm(now + plan.fault_every)
             }
@@ -401,16 +469,24 @@ pub fn run(
             problems.push(format!("pod {:?} sent no report", pod.name));
         }
     }
+    // Every pod has exited, so every stderr is closed: the readers end once they have read
+    // (and counted) the last line.
+    for reader in readers {
+        if reader.join().is_err() {
+            problems.push("a stderr reader panicked".into());
+        }
+    }
     let reports: Vec<NodeReport> = pods.iter().filter_map(|p| p.report.clone()).collect();
     let memory = pods
         .iter()
-        .map(|p| MemoryRow::new(&p.name, &p.memory, plan.duration))
+        .map(|p| MemoryRow::new(&p.name, &p.memory))
         .collect();
     Ok(ChaosReport::new(
         &scene,
         &run_id,
         report::Inputs {
             transport: seam_transport::redact_url(&transport),
+            redis: plan.redis,
             rate: plan.rate,
             duration_s: plan.duration.as_secs_f64(),
             wall_s: launched.elapsed().as_secs_f64(),

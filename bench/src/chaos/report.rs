@@ -40,6 +40,38 @@ impl FaultCounts {
             && self.stop == self.stop_survived
             && self.redis_restart == self.redis_restart_survived
     }
+
+    /// The fault kinds a run planned (Redis restarts only over Redis) and never injected: a run
+    /// without faults proves nothing.
+    fn missing(&self, redis: bool) -> Vec<String> {
+        let mut missing = Vec::new();
+        for (name, count, planned) in [
+            ("kill", self.kill, true),
+            ("stop", self.stop, true),
+            ("Redis restart", self.redis_restart, redis),
+        ] {
+            if planned && count == 0 {
+                missing.push(format!(
+                    "no {name} was injected (run longer or fault more often)"
+                ));
+            }
+        }
+        missing
+    }
+}
+
+/// Largest growth of a pod's memory after warm-up that passes, percent: the end of the run
+/// against the end of warm-up, and the highest sample after warm-up against the highest of
+/// warm-up. Memory given back (a negative figure) passes whatever its size.
+pub const MEMORY_BOUND_PCT: f64 = 10.0;
+
+/// One progress line's memory figure.
+#[derive(Debug, Clone, Copy)]
+pub struct MemorySample {
+    /// Seconds since the run was launched.
+    pub at_s: f64,
+    /// Resident set, KiB.
+    pub rss_kib: u64,
 }
 
 /// One pod's memory after warm-up.
@@ -47,60 +79,72 @@ impl FaultCounts {
 pub struct MemoryRow {
     /// Scene cluster.
     pub pod: String,
-    /// Seconds of the (last) incarnation's life taken as warm-up.
+    /// Seconds of the (last) incarnation's life taken as warm-up: the first half of it, at
+    /// least 10 s. A pod's memory steps up the first times it holds a dead or stopped
+    /// neighbour's bodies beside its own (Rapier's arenas, and shared-memory pages its
+    /// neighbours' bursts touch for the first time) and then stays; a leak grows on. So the
+    /// second half of a life is judged against the first.
     pub warmup_s: f64,
     /// RSS at the end of warm-up, KiB.
     pub base_kib: u64,
-    /// Largest RSS after warm-up, KiB (a pod adopting a stopped neighbour's entities holds
-    /// more bodies for a while).
+    /// Largest RSS during warm-up, KiB: the high-water mark of a pod that has been through
+    /// the faults once (adopting a stopped neighbour's entities holds more bodies for a while).
+    pub warmup_max_kib: u64,
+    /// Largest RSS after warm-up, KiB.
     pub max_kib: u64,
     /// RSS at the last sample, KiB.
     pub end_kib: u64,
     /// Growth of the last sample over the base, percent (`None`: the incarnation lived too
     /// short to judge).
     pub growth_pct: Option<f64>,
-    /// Growth of the largest over the base, percent.
+    /// Growth of the largest sample after warm-up over the largest of warm-up, percent.
     pub peak_growth_pct: Option<f64>,
     /// One sample every 30 s of the incarnation's life: (seconds since launch, KiB).
     pub series_kib: Vec<(f64, u64)>,
 }
 
 impl MemoryRow {
-    /// From the RSS samples `(seconds, KiB)` of a pod's last incarnation: warm-up is a fifth of
-    /// the run, at least 10 s; a measure needs 10 s more.
-    pub fn new(pod: &str, samples: &[(f64, u64)], run: std::time::Duration) -> Self {
-        let warmup_s = (run.as_secs_f64() / 5.0).max(10.0);
-        let first = samples.first().map_or(0.0, |s| s.0);
-        let after: Vec<u64> = samples
-            .iter()
-            .filter(|(t, _)| *t - first >= warmup_s)
-            .map(|&(_, kib)| kib)
-            .collect();
-        let lived = samples.last().map_or(0.0, |s| s.0) - first;
+    /// From the memory samples of a pod's last incarnation (see [`Self::warmup_s`]); a measure
+    /// needs 10 s after warm-up.
+    pub fn new(pod: &str, samples: &[MemorySample]) -> Self {
+        let first = samples.first().map_or(0.0, |s| s.at_s);
+        let lived = samples.last().map_or(0.0, |s| s.at_s) - first;
+        let warmup_s = (lived / 2.0).max(10.0);
+        let (during, after): (Vec<&MemorySample>, Vec<&MemorySample>) =
+            samples.iter().partition(|s| s.at_s - first < warmup_s);
+        let after: Vec<u64> = after.iter().map(|s| s.rss_kib).collect();
+        let warmup_max_kib = during.iter().map(|s| s.rss_kib).max().unwrap_or(0);
         let base_kib = after.first().copied().unwrap_or(0);
         let max_kib = after.iter().copied().max().unwrap_or(0);
         let end_kib = after.last().copied().unwrap_or(0);
-        let judged = lived >= warmup_s + 10.0 && base_kib > 0;
-        let growth = |kib: u64| (kib as f64 - base_kib as f64) / base_kib as f64 * 100.0;
+        let judged = lived >= warmup_s + 10.0 && base_kib > 0 && warmup_max_kib > 0;
+        let growth = |kib: u64, base: u64| (kib as f64 - base as f64) / base as f64 * 100.0;
         let mut series_kib = Vec::new();
-        for &(t, kib) in samples {
+        for s in samples {
             if series_kib
                 .last()
-                .is_none_or(|&(last, _): &(f64, u64)| t - last >= 30.0)
+                .is_none_or(|&(last, _): &(f64, u64)| s.at_s - last >= 30.0)
             {
-                series_kib.push((t, kib));
+                series_kib.push((s.at_s, s.rss_kib));
             }
         }
         Self {
             pod: pod.to_owned(),
             warmup_s,
             base_kib,
+            warmup_max_kib,
             max_kib,
             end_kib,
-            growth_pct: judged.then(|| growth(end_kib)),
-            peak_growth_pct: judged.then(|| growth(max_kib)),
+            growth_pct: judged.then(|| growth(end_kib, base_kib)),
+            peak_growth_pct: judged.then(|| growth(max_kib, warmup_max_kib)),
             series_kib,
         }
+    }
+
+    /// Whether the pod's memory stayed within [`MEMORY_BOUND_PCT`] (`None`: not judged).
+    pub fn holds(&self) -> Option<bool> {
+        let (end, peak) = (self.growth_pct?, self.peak_growth_pct?);
+        Some(end <= MEMORY_BOUND_PCT && peak <= MEMORY_BOUND_PCT)
     }
 }
 
@@ -194,6 +238,8 @@ pub struct ChaosReport {
     pub faults: FaultCounts,
     /// Faults not survived, and why.
     pub failed_faults: Vec<String>,
+    /// Fault kinds the run planned and never injected.
+    pub faults_missing: Vec<String>,
     /// Bad frames injected.
     pub injected: InjectCounts,
     /// Frames, every pod incarnation summed (the killed ones by their last progress line).
@@ -217,6 +263,8 @@ pub struct ChaosReport {
 /// What [`ChaosReport::new`] is made from.
 pub(super) struct Inputs<'a> {
     pub transport: String,
+    /// Redis restarts were planned.
+    pub redis: bool,
     pub rate: f64,
     pub duration_s: f64,
     pub wall_s: f64,
@@ -281,6 +329,7 @@ impl ChaosReport {
             wall_s: inputs.wall_s,
             faults: inputs.faults,
             failed_faults: inputs.failed_faults,
+            faults_missing: inputs.faults.missing(inputs.redis),
             injected: inputs.injected,
             frames,
             ops,
@@ -305,13 +354,31 @@ impl ChaosReport {
             && self.frames.replayed == self.injected.forged_deliveries
     }
 
-    /// Whether the run met every target: faults survived, every injected frame accounted for,
-    /// no entity lost or owned twice, no panic, every pod ended well.
+    /// Whether every entity adopted from a dead or stopped pod was handed back to it.
+    pub fn adoptions_returned(&self) -> bool {
+        self.recovery.entities_adopted == self.recovery.entities_returned
+    }
+
+    /// Whether memory held: every pod judged stayed within its bound, and a run long enough
+    /// for every last incarnation to be judged (a minute or more: kills stop at half-time)
+    /// judged at least one.
+    pub fn memory_holds(&self) -> bool {
+        let judged: Vec<bool> = self.memory.iter().filter_map(MemoryRow::holds).collect();
+        judged.iter().all(|&ok| ok) && (self.duration_s < 60.0 || !judged.is_empty())
+    }
+
+    /// Whether the run met every target: every planned fault kind injected and every fault
+    /// survived, every injected frame accounted for, no entity lost or owned twice, every
+    /// adoption returned, memory within its bound, no panic, every pod ended well, nothing
+    /// else went wrong.
     pub fn holds(&self) -> bool {
         self.faults.all_survived()
             && self.failed_faults.is_empty()
+            && self.faults_missing.is_empty()
             && self.accounted()
             && self.ownership.holds()
+            && self.adoptions_returned()
+            && self.memory_holds()
             && self.panics == 0
             && self.exited_badly == 0
             && self.problems.is_empty()
@@ -392,13 +459,14 @@ pub fn table(r: &ChaosReport) -> String {
     );
     let rc = &r.recovery;
     out += &format!(
-        "recovery: {} neighbours taken for dead, {} rejoined; {} entities adopted, {} returned, \
+        "recovery: {} neighbours taken for dead, {} rejoined; {} entities adopted, {} returned{}, \
          {} hand-offs reclaimed; {} disconnects, {} reconnects, {:.1} s down (pods summed), {} \
          publishes dropped while down\n",
         rc.neighbours_lost,
         rc.neighbours_rejoined,
         rc.entities_adopted,
         rc.entities_returned,
+        mark(r.adoptions_returned()),
         rc.handoffs_reclaimed,
         rc.disconnects,
         rc.reconnects,
@@ -410,25 +478,36 @@ pub fn table(r: &ChaosReport) -> String {
         r.panics, r.exited_badly
     );
     out += &format!(
-        "{:<12} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9}\n",
-        "memory", "warm-up s", "base KiB", "end KiB", "peak KiB", "growth", "peak"
+        "{:<12} {:>9} {:>10} {:>10} {:>11} {:>10} {:>9} {:>9}\n",
+        "memory", "warm-up s", "base KiB", "end KiB", "warm-up max", "peak KiB", "growth", "peak"
     );
     let percent = |g: Option<f64>| g.map_or("-".to_owned(), |g| format!("{g:+.1} %"));
     for m in &r.memory {
         out += &format!(
-            "{:<12} {:>9.0} {:>10} {:>10} {:>10} {:>9} {:>9}\n",
+            "{:<12} {:>9.0} {:>10} {:>10} {:>11} {:>10} {:>9} {:>9}{}\n",
             m.pod,
             m.warmup_s,
             m.base_kib,
             m.end_kib,
+            m.warmup_max_kib,
             m.max_kib,
             percent(m.growth_pct),
-            percent(m.peak_growth_pct)
+            percent(m.peak_growth_pct),
+            mark(m.holds() != Some(false))
         );
     }
-    out += "growth = end of run over end of warm-up; peak = largest sample over it (adopting a \
-            stopped neighbour's entities holds more bodies for a while)\n";
-    for problem in r.failed_faults.iter().chain(&r.problems) {
+    out += &format!(
+        "warm-up = first half of the pod's last life; growth = end of run over end of warm-up; \
+         peak = largest sample after warm-up over the largest during it; each at most \
+         +{MEMORY_BOUND_PCT} % (a pod whose last life was too short is not judged){}\n",
+        mark(r.memory_holds())
+    );
+    for problem in r
+        .failed_faults
+        .iter()
+        .chain(&r.faults_missing)
+        .chain(&r.problems)
+    {
         out += &format!("problem: {problem}\n");
     }
     out += if r.holds() {
