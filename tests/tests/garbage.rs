@@ -292,7 +292,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                 9 => {
                     let ahead = tick_tag + 1_000_000 + noise.next() % 1_000_000;
                     expected.implausible += 1;
-                    if noise.next() % 2 == 0 {
+                    if noise.next().is_multiple_of(2) {
                         let frame = op_frame(ahead, vec![PhysicsOp::Wake { target }]);
                         (&events_channel, vec![wire::encode(&frame)])
                     } else {
