@@ -481,12 +481,14 @@ fn speed_cap_is_configuration() {
         (v - 200.0).abs() < 1e-3,
         "a cap of 200 m/s holds a 300 m/s bullet to 200: {v}"
     );
-    let (mut sim, bullet, _) = projectile_scene(false, 1000.0, 400.0, BodyRole::Fixed);
+    let default_cap = SimConfig::new(HERE).max_linear_velocity;
+    assert_eq!(default_cap, 400.0, "the default is Rapier's 400 m/s");
+    let (mut sim, bullet, _) = projectile_scene(false, 1000.0, default_cap, BodyRole::Fixed);
     sim.step();
     let v = sim.state(bullet).expect("bullet").linvel[0];
     assert!(
         (v - 400.0).abs() < 1e-3,
-        "Rapier's default cap of 400 m/s: {v}"
+        "the default cap holds a 1000 m/s bullet to 400 m/s: {v}"
     );
     let (mut sim, bullet, _) = projectile_scene(false, 1000.0, 2000.0, BodyRole::Fixed);
     sim.step();

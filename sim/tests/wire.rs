@@ -176,12 +176,14 @@ fn random_bytes_never_panic() {
 
 #[test]
 fn flipped_bits_never_panic() {
-    let bytes = wire::encode(&events());
-    for bit in 0..bytes.len() * 8 {
-        let mut corrupted = bytes.clone();
-        corrupted[bit / 8] ^= 1 << (bit % 8);
-        let _ = wire::decode::<PhysicsEventsFrame>(&corrupted);
-        let _ = wire::decode::<ReplicationFrame>(&corrupted);
+    // Every single-bit flip of both frame kinds, decoded as both kinds.
+    for bytes in [wire::encode(&events()), wire::encode(&replication())] {
+        for bit in 0..bytes.len() * 8 {
+            let mut corrupted = bytes.clone();
+            corrupted[bit / 8] ^= 1 << (bit % 8);
+            let _ = wire::decode::<PhysicsEventsFrame>(&corrupted);
+            let _ = wire::decode::<ReplicationFrame>(&corrupted);
+        }
     }
 }
 

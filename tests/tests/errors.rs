@@ -1,7 +1,12 @@
 //! Errors that name what is wrong: bad URLs, unreachable servers, incompatible services, and
 //! foreign bytes on a channel (counted and skipped, never handed to the caller).
 
-use seam_tests::{PATIENCE, TestContext, receive, redis_url};
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use seam_bench::node::ProxyModeArg;
+use seam_bench::run::{self, RunPlan};
+use seam_tests::{PATIENCE, TestContext, receive, redis_url, scene_path};
 use seam_transport::{Backend, OpenError, SubscribeError, Transport};
 
 #[test]
@@ -43,15 +48,45 @@ fn wrong_redis_password_is_an_authentication_error() {
     };
     let url = redis_url().replacen("redis://", "redis://nobody:wrong-secret@", 1);
     match seam_transport::open(&url) {
-        Err(OpenError::AuthenticationFailed { reason, .. }) => {
-            assert!(
-                !reason.contains("wrong-secret"),
-                "the password leaked: {reason}"
-            );
+        Err(error @ OpenError::AuthenticationFailed { .. }) => {
+            for text in [error.to_string(), format!("{error:?}")] {
+                assert!(
+                    !text.contains("wrong-secret"),
+                    "the password leaked: {text}"
+                );
+            }
         }
         Err(other) => panic!("expected AuthenticationFailed, got {other}"),
         Ok(_) => panic!("a wrong password was accepted"),
     }
+}
+
+#[test]
+fn a_bad_url_hides_the_password() {
+    for url in [
+        "redis://admin:hunter2@127.0.0.1:notaport",
+        "redis://admin:hunter2@",
+        "redis://admin:hunter2@127.0.0.1:6379?bad=1",
+    ] {
+        let error = match seam_transport::open(url) {
+            Err(e) => e,
+            Ok(_) => panic!("{url} opened"),
+        };
+        for text in [error.to_string(), format!("{error:?}")] {
+            assert!(
+                !text.contains("hunter2"),
+                "{url}: the password leaked: {text}"
+            );
+        }
+    }
+    assert_eq!(
+        seam_transport::redact_url("redis://admin:hunter2@host:1"),
+        "redis://admin:***@host:1"
+    );
+    assert_eq!(
+        seam_transport::redact_url("redis://hunter2@host:1"),
+        "redis://***@host:1"
+    );
 }
 
 fn incompatible_settings_are_refused(backend: Backend) {
@@ -184,7 +219,8 @@ fn shm_foreign_samples_are_counted_and_skipped() {
     only_the_real_message_arrives(&ctx, subscriber.as_mut(), &channel, 4);
 }
 
-/// A user and password in the URL authenticate both connections (a temporary ACL user).
+/// A user and password in the URL authenticate both connections (a temporary ACL user), and
+/// pods started with it run and report without printing it.
 #[test]
 fn redis_user_and_password_in_the_url_work() {
     let Some(ctx) = TestContext::new(Backend::Redis) else {
@@ -223,6 +259,31 @@ fn redis_user_and_password_in_the_url_work() {
             .filter(|line| line.contains(&format!(" user={user} ")))
             .count();
         assert_eq!(as_user, 4, "connections logged in as {user}:\n{clients}");
+        drop((publisher, subscriber));
+
+        // Pods started with the URL log in too, and neither the report nor its table names
+        // the password.
+        let plan = RunPlan {
+            scene: scene_path("crossfire.toml"),
+            transport: url.clone(),
+            rate: 300.0,
+            ticks: Some(60),
+            proxy_mode: ProxyModeArg::Fixed,
+            replication_interval: 1,
+            layers: 1,
+            run_id: run::fresh_run_id(),
+            node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
+            start_delay: Duration::from_millis(300),
+            in_phase: false,
+        };
+        let report = run::run(&plan, &AtomicBool::new(false), |_| {}).expect("pods run");
+        assert!(report.pods.iter().all(|p| p.ticks == 60), "{report:?}");
+        for text in [
+            run::table(&report),
+            serde_json::to_string(&report).expect("json"),
+        ] {
+            assert!(!text.contains(&password), "the password leaked: {text}");
+        }
     });
     let _: redis::RedisResult<()> = redis::cmd("ACL")
         .arg("DELUSER")
