@@ -267,7 +267,7 @@ fn redis_user_and_password_in_the_url_work() {
             scene: scene_path("crossfire.toml"),
             transport: url.clone(),
             rate: 300.0,
-            ticks: Some(60),
+            ticks: Some(600),
             proxy_mode: ProxyModeArg::Fixed,
             replication_interval: 1,
             layers: 1,
@@ -276,8 +276,17 @@ fn redis_user_and_password_in_the_url_work() {
             start_delay: Duration::from_millis(300),
             in_phase: false,
         };
-        let report = run::run(&plan, &AtomicBool::new(false), |_| {}).expect("pods run");
-        assert!(report.pods.iter().all(|p| p.ticks == 60), "{report:?}");
+        // While they run, the process list shows each pod's command line: no password there.
+        let mut pods_seen = 0;
+        let report = run::run(&plan, &AtomicBool::new(false), |_| {
+            for cmdline in command_lines_with(&plan.run_id) {
+                pods_seen += 1;
+                assert!(!cmdline.contains(&password), "in the process list: {cmdline}");
+            }
+        })
+        .expect("pods run");
+        assert!(pods_seen > 0, "the pods were looked for while they ran");
+        assert!(report.pods.iter().all(|p| p.ticks == 600), "{report:?}");
         for text in [
             run::table(&report),
             serde_json::to_string(&report).expect("json"),
@@ -292,4 +301,17 @@ fn redis_user_and_password_in_the_url_work() {
     if let Err(panic) = result {
         std::panic::resume_unwind(panic);
     }
+}
+
+/// The command lines of this host's processes that mention `needle`.
+fn command_lines_with(needle: &str) -> Vec<String> {
+    let Ok(entries) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    entries
+        .filter_map(Result::ok)
+        .filter_map(|entry| std::fs::read(entry.path().join("cmdline")).ok())
+        .map(|bytes| String::from_utf8_lossy(&bytes).replace('\0', " "))
+        .filter(|line| line.contains(needle))
+        .collect()
 }

@@ -103,7 +103,9 @@ pub fn spawn_pod(
         .args(leading)
         .arg(&plan.scene)
         .args(["--cluster", launch.cluster])
-        .args(["--transport", &plan.transport])
+        // Through the environment, not the command line, which every user of the host can
+        // read: the URL may hold a password.
+        .env("SEAM_TRANSPORT", &plan.transport)
         .args(["--rate", &plan.rate.to_string()])
         .args(["--ticks", &launch.ticks.to_string()])
         .args(["--run-id", &plan.run_id])
