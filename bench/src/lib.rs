@@ -22,6 +22,7 @@
 //! - [`scene`] — the scene format (`bench/scenes/*.toml`) and its checks.
 //! - [`wait`] — spinning or sleeping for the next message ([`wait::WaitMode`]).
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.
+//! - [`markdown`] — tables as the documents quote them (`--markdown`).
 //! - `benches/` — criterion: `bench_transport` (publish → receive per backend), `bench_sim`
 //!   (a tick against raw Rapier, the wire), `bench_proxy` (tick cost with 0 / 1 000 / 10 000
 //!   proxies), `bench_replication` (op batches; 10 000 states end to end).
@@ -29,6 +30,7 @@
 pub mod accuracy;
 pub mod chaos;
 pub mod latency;
+pub mod markdown;
 pub mod node;
 pub mod ops;
 pub mod ping;

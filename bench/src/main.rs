@@ -61,9 +61,8 @@ enum Command {
         /// so co-hosted pods do not all want a core at once).
         #[arg(long)]
         in_phase: bool,
-        /// Print the report as one JSON object.
-        #[arg(long)]
-        json: bool,
+        #[command(flatten)]
+        output: Output,
     },
     /// Compare one setting against the single-world reference: accuracy and cost.
     ///
@@ -146,9 +145,8 @@ enum Command {
         /// Seeds which pod each fault hits and the garbage.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Print the report as one JSON object.
-        #[arg(long)]
-        json: bool,
+        #[command(flatten)]
+        output: Output,
     },
     /// One cluster pod: runs its part of a scene over a transport (started by `seam run`, or by
     /// hand on each host).
@@ -180,9 +178,8 @@ enum Command {
         /// How both sides wait for a message: auto spins on shared memory and sleeps on Redis.
         #[arg(long, value_enum, default_value_t = WaitMode::Auto)]
         wait: WaitMode,
-        /// Print one JSON object per row instead of the table.
-        #[arg(long)]
-        json: bool,
+        #[command(flatten)]
+        output: Output,
         /// Skip the plain-iceoryx2 floor rows.
         #[arg(long)]
         no_floor: bool,
@@ -211,9 +208,8 @@ enum Command {
         /// How both sides wait: auto spins on shared memory and sleeps on Redis.
         #[arg(long, value_enum, default_value_t = WaitMode::Auto)]
         wait: WaitMode,
-        /// Print one JSON object per row instead of the table.
-        #[arg(long)]
-        json: bool,
+        #[command(flatten)]
+        output: Output,
     },
     /// Check scene files and summarise them (clusters, entities, events, ticks).
     ///
@@ -383,14 +379,54 @@ fn progress(total: usize) -> impl FnMut(&str) {
     }
 }
 
-/// Prints measured rows as a table, or as one JSON object per line.
-fn print_rows<R: serde::Serialize>(rows: &[R], json: bool, table: fn(&[R]) -> String) {
-    if json {
-        for row in rows {
-            println!("{}", serde_json::to_string(row).expect("rows serialise"));
+/// How a command prints what it measured.
+#[derive(clap::Args, Clone, Copy)]
+struct Output {
+    /// Print JSON instead of the table (one object per row for `ping` and `ops`).
+    #[arg(long, conflicts_with = "markdown")]
+    json: bool,
+    /// Print the measured rows as Markdown tables, as BENCHMARKS.md and RELIABILITY.md quote
+    /// them.
+    #[arg(long)]
+    markdown: bool,
+}
+
+impl Output {
+    /// Prints measured rows as a table, as Markdown, or as one JSON object per line.
+    fn rows<R: serde::Serialize>(
+        self,
+        rows: &[R],
+        table: fn(&[R]) -> String,
+        markdown: fn(&[R]) -> String,
+    ) {
+        if self.json {
+            for row in rows {
+                println!("{}", serde_json::to_string(row).expect("rows serialise"));
+            }
+        } else if self.markdown {
+            print!("{}", markdown(rows));
+        } else {
+            print!("{}", table(rows));
         }
-    } else {
-        print!("{}", table(rows));
+    }
+
+    /// Prints a report as a table, as Markdown, or as one JSON object.
+    fn report<R: serde::Serialize>(
+        self,
+        report: &R,
+        table: fn(&R) -> String,
+        markdown: fn(&R) -> String,
+    ) {
+        if self.json {
+            println!(
+                "{}",
+                serde_json::to_string_pretty(report).expect("reports serialise")
+            );
+        } else if self.markdown {
+            print!("{}", markdown(report));
+        } else {
+            print!("{}", table(report));
+        }
     }
 }
 
@@ -426,7 +462,7 @@ fn seconds(value: f64) -> std::time::Duration {
     std::time::Duration::try_from_secs_f64(value).unwrap_or_default()
 }
 
-fn chaos(mut plan: ChaosPlan, json: bool) -> Result<(), String> {
+fn chaos(mut plan: ChaosPlan, output: Output) -> Result<(), String> {
     if plan.duration < std::time::Duration::from_secs(10) {
         return Err("--duration-s must be at least 10".into());
     }
@@ -443,14 +479,11 @@ fn chaos(mut plan: ChaosPlan, json: bool) -> Result<(), String> {
         plan.fault_every.as_secs_f64()
     );
     let report = seam_bench::chaos::run(&plan, &stop, |line| eprintln!("{line}"))?;
-    if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("reports serialise")
-        );
-    } else {
-        print!("{}", seam_bench::chaos::table(&report));
-    }
+    output.report(
+        &report,
+        seam_bench::chaos::table,
+        seam_bench::chaos::markdown,
+    );
     if report.holds() {
         Ok(())
     } else {
@@ -469,7 +502,7 @@ fn main() -> ExitCode {
             replication_interval,
             layers,
             in_phase,
-            json,
+            output,
         } => run_scene(RunPlan {
             scene,
             transport: expand_transport(&transport),
@@ -484,14 +517,7 @@ fn main() -> ExitCode {
             in_phase,
         })
         .and_then(|report| {
-            if json {
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&report).expect("reports serialise")
-                );
-            } else {
-                print!("{}", run::table(&report));
-            }
+            output.report(&report, run::table, run::markdown);
             if report.ownership.holds() {
                 Ok(())
             } else {
@@ -533,7 +559,7 @@ fn main() -> ExitCode {
             rate,
             layers,
             seed,
-            json,
+            output,
         } => chaos(
             ChaosPlan {
                 scene,
@@ -545,7 +571,7 @@ fn main() -> ExitCode {
                 seed,
                 node_command: Vec::new(),
             },
-            json,
+            output,
         ),
         Command::Node(args) => node::stop_flag().and_then(|stop| {
             node::run_node(&args, &stop, &mut std::io::stdout().lock()).map(|_| ())
@@ -556,7 +582,7 @@ fn main() -> ExitCode {
             iterations,
             warmup,
             wait,
-            json,
+            output,
             no_floor,
         } => {
             let plan = PingPlan {
@@ -582,7 +608,7 @@ fn main() -> ExitCode {
                 std::thread::available_parallelism().map_or(0, |n| n.get())
             );
             ping::run(&plan, progress(total))
-                .map(|rows| print_rows(&rows, json, ping::table))
+                .map(|rows| output.rows(&rows, ping::table, ping::markdown))
                 .map_err(|e| e.to_string())
         }
         Command::Ops {
@@ -591,7 +617,7 @@ fn main() -> ExitCode {
             rounds,
             warmup,
             wait,
-            json,
+            output,
         } => {
             let plan = OpsPlan {
                 transports: transport.iter().map(|t| expand_transport(t)).collect(),
@@ -604,7 +630,8 @@ fn main() -> ExitCode {
             eprintln!(
                 "seam ops: {rounds} timed frames per row after {warmup} warm-up, one frame in flight"
             );
-            ops::run(&plan, progress(total)).map(|rows| print_rows(&rows, json, ops::table))
+            ops::run(&plan, progress(total))
+                .map(|rows| output.rows(&rows, ops::table, ops::markdown))
         }
         Command::Scene { files } => files.iter().try_for_each(|file| {
             let scene = seam_bench::scene::load(file).map_err(|e| e.to_string())?;

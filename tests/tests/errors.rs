@@ -281,7 +281,10 @@ fn redis_user_and_password_in_the_url_work() {
         let report = run::run(&plan, &AtomicBool::new(false), |_| {
             for cmdline in command_lines_with(&plan.run_id) {
                 pods_seen += 1;
-                assert!(!cmdline.contains(&password), "in the process list: {cmdline}");
+                assert!(
+                    !cmdline.contains(&password),
+                    "in the process list: {cmdline}"
+                );
             }
         })
         .expect("pods run");

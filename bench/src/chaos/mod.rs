@@ -49,7 +49,9 @@ use crate::pod::SceneIds;
 use crate::redis_server::RedisServer;
 use crate::run::{PodLaunch, PodLine, RunPlan, fresh_run_id, spawn_pod};
 pub use inject::{InjectCounts, Injector};
-pub use report::{ChaosReport, FaultCounts, MEMORY_BOUND_PCT, MemoryRow, MemorySample, table};
+pub use report::{
+    ChaosReport, FaultCounts, MEMORY_BOUND_PCT, MemoryRow, MemorySample, markdown, table,
+};
 
 /// What `seam chaos` runs.
 pub struct ChaosPlan {

@@ -517,3 +517,115 @@ pub fn table(r: &ChaosReport) -> String {
     };
     out
 }
+
+/// The run as the two rows of RELIABILITY.md's tables (`seam chaos --markdown`): what was
+/// injected and what held, then what else the pods counted.
+pub fn markdown(r: &ChaosReport) -> String {
+    use crate::markdown::{Align::*, Table, grouped};
+    let transport = if r.transport.starts_with("redis") {
+        "Redis"
+    } else {
+        "shm"
+    };
+    let redis = transport == "Redis";
+    let f = &r.faults;
+    let pair = |a: u64, b: u64| format!("{} / {}", grouped(a), grouped(b));
+    let percent = |g: Option<f64>| g.map_or("-".to_owned(), |g| format!("{g:+.1} %"));
+    let memory: Vec<String> = r
+        .memory
+        .iter()
+        .map(|m| {
+            format!(
+                "{} {}, {}",
+                m.pod,
+                percent(m.growth_pct),
+                percent(m.peak_growth_pct)
+            )
+        })
+        .collect();
+    let o = &r.ownership;
+    let mut held = Table::new(&[
+        ("scene", Left),
+        ("transport", Left),
+        ("s", Right),
+        ("pods", Right),
+        ("kill", Right),
+        ("stop", Right),
+        ("Redis restart", Right),
+        ("garbage delivered / refused", Right),
+        ("forged delivered / replays", Right),
+        ("entities expected / once / lost / twice", Left),
+        ("adopted / returned", Left),
+        ("panics", Right),
+        ("memory growth: end, peak", Left),
+        ("result", Left),
+    ]);
+    held.row(vec![
+        format!("`{}`", r.scene),
+        transport.to_owned(),
+        format!("{:.0}", r.duration_s),
+        r.pods.to_string(),
+        pair(f.kill, f.kill_survived),
+        pair(f.stop, f.stop_survived),
+        if redis {
+            pair(f.redis_restart, f.redis_restart_survived)
+        } else {
+            "—".to_owned()
+        },
+        pair(r.injected.garbage_deliveries, r.garbage_refused()),
+        pair(r.injected.forged_deliveries, r.frames.replayed),
+        format!(
+            "{} / {} / {} / {}",
+            grouped(o.expected as u64),
+            grouped(o.owned_once as u64),
+            o.lost.len(),
+            o.duplicated.len()
+        ),
+        pair(r.recovery.entities_adopted, r.recovery.entities_returned),
+        r.panics.to_string(),
+        memory.join("; "),
+        if r.holds() { "held" } else { "FAILED" }.to_owned(),
+    ]);
+    let (fr, op, rc) = (&r.frames, &r.ops, &r.recovery);
+    let mut counted = Table::new(&[
+        ("scene", Left),
+        ("transport", Left),
+        ("frames taken", Right),
+        ("lost to full buffers", Right),
+        ("implausible", Right),
+        ("states rejected", Right),
+        ("ops routed / applied / lost in transit", Left),
+        ("taken for dead / rejoined", Left),
+        (
+            "disconnects / reconnects, s down (pods summed), publishes dropped",
+            Left,
+        ),
+    ]);
+    counted.row(vec![
+        format!("`{}`", r.scene),
+        transport.to_owned(),
+        grouped(fr.accepted),
+        grouped(fr.overflow),
+        grouped(fr.implausible),
+        grouped(fr.states_rejected),
+        format!(
+            "{} / {} / {}",
+            grouped(op.routed),
+            grouped(op.applied),
+            grouped(op.lost_in_transit())
+        ),
+        pair(rc.neighbours_lost, rc.neighbours_rejoined),
+        if redis {
+            format!(
+                "{} / {}, {:.1} s, {}",
+                grouped(rc.disconnects),
+                grouped(rc.reconnects),
+                rc.down_s,
+                grouped(rc.dropped_while_down)
+            )
+        } else {
+            "—".to_owned()
+        },
+    ]);
+    held.render() + "\n" + &counted.render()
+}

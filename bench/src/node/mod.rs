@@ -58,7 +58,12 @@ pub struct NodeArgs {
     /// Transport URL: `shm`, `local` or `redis://[user:password@]host:port`. Read from
     /// `SEAM_TRANSPORT` when the flag is not given: a password there does not show in the
     /// process list (`seam run` and `seam chaos` start their pods that way).
-    #[arg(long, env = "SEAM_TRANSPORT", default_value = "shm", hide_env_values = true)]
+    #[arg(
+        long,
+        env = "SEAM_TRANSPORT",
+        default_value = "shm",
+        hide_env_values = true
+    )]
     pub transport: String,
     /// Ticks per second; 0 ticks as fast as the pod can.
     #[arg(long, default_value_t = 60.0)]

@@ -243,6 +243,12 @@ pub fn table(rows: &[OpsRow]) -> String {
         );
     }
     out += "times in µs; xport = published → received\n";
+    out + &ratios(rows)
+}
+
+/// The redis / shm ratio of the transport stage's p50 per batch, one line each.
+fn ratios(rows: &[OpsRow]) -> String {
+    let mut out = String::new();
     let mut batches: Vec<usize> = rows.iter().map(|r| r.batch).collect();
     batches.sort_unstable();
     batches.dedup();
@@ -260,4 +266,39 @@ pub fn table(rows: &[OpsRow]) -> String {
         }
     }
     out
+}
+
+/// The rows as a Markdown table (`seam ops --markdown`), as BENCHMARKS.md quotes them.
+pub fn markdown(rows: &[OpsRow]) -> String {
+    use crate::markdown::{Align::*, Table, grouped};
+    let mut table = Table::new(&[
+        ("transport", Left),
+        ("wait", Left),
+        ("batch", Right),
+        ("whole p50", Right),
+        ("p99", Right),
+        ("p99.9", Right),
+        ("queue p50", Right),
+        ("xport p50", Right),
+        ("xport p99", Right),
+        ("apply p50", Right),
+        ("ops/s", Right),
+    ]);
+    for r in rows {
+        let s = &r.stages;
+        table.row(vec![
+            r.transport.clone(),
+            r.wait.to_owned(),
+            r.batch.to_string(),
+            micros(r.p50_ns),
+            micros(r.p99_ns),
+            micros(r.p999_ns),
+            micros(s.queue.p50_ns),
+            micros(s.transport.p50_ns),
+            micros(s.transport.p99_ns),
+            micros(s.apply.p50_ns),
+            grouped(r.ops_per_s.round() as u64),
+        ]);
+    }
+    table.render() + "\n" + &ratios(rows)
 }

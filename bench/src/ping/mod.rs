@@ -148,6 +148,12 @@ pub fn table(rows: &[PingRow]) -> String {
             row.msgs_per_s
         );
     }
+    out + &ratios(rows)
+}
+
+/// The shm / iceoryx2 and redis / shm ratios of p50 one run measured, one line each.
+fn ratios(rows: &[PingRow]) -> String {
+    let mut out = String::new();
     let p50 = |name: &str, size: usize, wait: Option<&str>| {
         rows.iter()
             .find(|r| r.transport == name && r.size == size && wait.is_none_or(|w| r.wait == w))
@@ -168,4 +174,32 @@ pub fn table(rows: &[PingRow]) -> String {
         }
     }
     out
+}
+
+/// The rows as a Markdown table (`seam ping --markdown`), as BENCHMARKS.md quotes them.
+pub fn markdown(rows: &[PingRow]) -> String {
+    use crate::markdown::{Align::*, Table, grouped};
+    let mut table = Table::new(&[
+        ("transport", Left),
+        ("wait", Left),
+        ("size B", Right),
+        ("p50 µs", Right),
+        ("p99 µs", Right),
+        ("p99.9 µs", Right),
+        ("max µs", Right),
+        ("msgs/s", Right),
+    ]);
+    for row in rows {
+        table.row(vec![
+            row.transport.clone(),
+            row.wait.to_owned(),
+            row.size.to_string(),
+            micros(row.latency.p50_ns),
+            micros(row.latency.p99_ns),
+            micros(row.latency.p999_ns),
+            micros(row.latency.max_ns),
+            grouped(row.msgs_per_s.round() as u64),
+        ]);
+    }
+    table.render() + "\n" + &ratios(rows)
 }

@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 use seam_proxy::monotonic_ns;
 
 use crate::node::{NodeLine, NodeProgress, NodeReport, ProxyModeArg};
-pub use report::{PodSummary, RunReport, table};
+pub use report::{PodSummary, RunReport, markdown, table};
 
 /// What `seam run` runs.
 pub struct RunPlan {

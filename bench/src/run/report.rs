@@ -327,3 +327,82 @@ pub(crate) fn refused(s: &ClusterStats) -> u64 {
 fn millis(nanos: u64) -> String {
     format!("{:.2}", nanos as f64 / 1e6)
 }
+
+/// The report as Markdown tables (`seam run --markdown`), as BENCHMARKS.md quotes them: one row
+/// per pod, then the routed-op stages of all pods merged.
+pub fn markdown(report: &RunReport) -> String {
+    use crate::markdown::{Align::*, Table, grouped};
+    let transport = transport_name(&report.transport);
+    let mut pods = Table::new(&[
+        ("transport", Left),
+        ("pod", Left),
+        ("tick p50 ms", Right),
+        ("p99", Right),
+        ("p99.9", Right),
+        ("max", Right),
+        ("overruns", Right),
+        ("proxies", Right),
+        ("ops applied", Right),
+        ("contacts received", Right),
+    ]);
+    for p in &report.pods {
+        let t = &p.tick_time;
+        pods.row(vec![
+            transport.clone(),
+            p.cluster.clone(),
+            millis(t.p50_ns),
+            millis(t.p99_ns),
+            millis(t.p999_ns),
+            millis(t.max_ns),
+            grouped(p.overruns),
+            grouped(p.proxies as u64),
+            grouped(p.cluster_stats.ops_applied),
+            grouped(p.cluster_stats.contacts_received),
+        ]);
+    }
+    let mut out = pods.render();
+    let o = &report.ops;
+    if o.ops > 0 {
+        let period_ns = (report.rate_hz > 0.0).then(|| 1e9 / report.rate_hz);
+        let mut stages = Table::new(&[
+            ("transport", Left),
+            ("ops", Right),
+            ("stage", Left),
+            ("p50", Right),
+            ("p99", Right),
+            ("p99.9", Right),
+            ("max", Right),
+            ("p50 in ticks", Right),
+        ]);
+        let us = |ns: u64| grouped((ns as f64 / 1000.0).round() as u64);
+        for (i, (name, s)) in [
+            ("queue", &o.queue),
+            ("transport", &o.transport),
+            ("apply", &o.apply),
+            ("whole", &o.whole),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let first = i == 0;
+            stages.row(vec![
+                transport.clone(),
+                if first { grouped(o.ops) } else { String::new() },
+                name.to_owned(),
+                us(s.p50_ns),
+                us(s.p99_ns),
+                us(s.p999_ns),
+                us(s.max_ns),
+                period_ns.map_or("-".to_owned(), |p| format!("{:.3}", s.p50_ns as f64 / p)),
+            ]);
+        }
+        out += "\n";
+        out += &stages.render();
+    }
+    out
+}
+
+/// `shm`, `redis` or `local` for a transport URL.
+fn transport_name(url: &str) -> String {
+    url.split(['?', ':']).next().unwrap_or(url).to_owned()
+}
