@@ -33,6 +33,7 @@ fn events(batch: usize) -> PhysicsEventsFrame {
                 },
                 issued_ns: 999_000_000 + i as u64,
                 issued_tick: 7,
+                forwarded: false,
             })
             .collect(),
         contacts: Vec::new(),

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use seam_bench::accuracy::{self, TrialSettings};
 use seam_bench::chaos::ChaosPlan;
-use seam_bench::node::{self, NodeArgs, ProxyModeArg};
+use seam_bench::node::{self, AuthorityArgs, NodeArgs, ProxyModeArg};
 use seam_bench::ops::{self, OpsPlan};
 use seam_bench::ping::{self, PingPlan, WaitMode};
 use seam_bench::run::{self, RunPlan};
@@ -50,6 +50,8 @@ enum Command {
         /// How neighbour entities are modelled.
         #[arg(long, value_enum, default_value_t = ProxyModeArg::Fixed)]
         proxy_mode: ProxyModeArg,
+        #[command(flatten)]
+        authority: AuthorityArgs,
         /// A replication frame every this many ticks.
         #[arg(long, default_value_t = 1)]
         replication_interval: u64,
@@ -266,6 +268,8 @@ struct Knobs {
     /// How neighbour entities are modelled.
     #[arg(long, value_enum, default_value_t = ProxyModeArg::Fixed)]
     proxy_mode: ProxyModeArg,
+    #[command(flatten)]
+    authority: AuthorityArgs,
     /// A replication frame every this many ticks.
     #[arg(long, default_value_t = 1)]
     replication_interval: u64,
@@ -290,6 +294,7 @@ impl Knobs {
     fn settings(&self) -> TrialSettings {
         TrialSettings {
             proxy_mode: self.proxy_mode.into(),
+            authority: self.authority,
             replication_interval: self.replication_interval.max(1),
             spread: self.spread,
             interest: !self.everything,
@@ -499,6 +504,7 @@ fn main() -> ExitCode {
             rate,
             ticks,
             proxy_mode,
+            authority,
             replication_interval,
             layers,
             in_phase,
@@ -509,6 +515,7 @@ fn main() -> ExitCode {
             rate,
             ticks,
             proxy_mode,
+            authority,
             replication_interval,
             layers,
             run_id: run::fresh_run_id(),

@@ -13,11 +13,13 @@ use seam_sim::{
 use seam_transport::Transport;
 
 use crate::adoption;
+use crate::authority::{AuthorityMode, AuthorityPolicy, AuthorityView, NeighbourView, Spatial};
 use crate::channels::{self, Channel};
 use crate::clock::{OpTiming, monotonic_ns};
-use crate::config::{ClusterConfig, CustomProxy, ProxyMode};
+use crate::config::{ClusterConfig, CustomProxy, ProxyMode, Region};
 use crate::error::ClusterError;
 use crate::inbox::{Inbox, TickFrames};
+use crate::interest::{Interest, extent};
 use crate::stats::ClusterStats;
 
 /// Writes on remote-owned entities, queued by owner until the tick publishes.
@@ -39,6 +41,7 @@ impl WriteRouter for Outbox<'_> {
             op,
             issued_ns: monotonic_ns(),
             issued_tick: self.tick,
+            forwarded: false,
         });
         Ok(())
     }
@@ -109,6 +112,10 @@ pub struct Cluster {
     /// Ticking free-running (`tick`, `wait`) rather than in lock-step: the inbox then keeps
     /// one replication frame per neighbour.
     free_running: bool,
+    /// Where neighbour entities are modelled (see `crate::interest`).
+    interest: Interest,
+    /// The policy asked for hand-offs at each replication frame (see `crate::authority`).
+    policy: Option<Box<dyn AuthorityPolicy>>,
 }
 
 impl Cluster {
@@ -147,8 +154,10 @@ impl Cluster {
                 (n, peer)
             })
             .collect();
+        let config_authority = config.authority;
         Ok(Self {
             replication_channel: channels::replication(config.cluster_id),
+            interest: Interest::new(config.region, config.spread),
             config,
             sim,
             transport,
@@ -165,6 +174,10 @@ impl Cluster {
             adopted: IdMap::default(),
             transport_was_up: true,
             free_running: false,
+            policy: match config_authority {
+                AuthorityMode::Spatial(settings) => Some(Box::new(Spatial::new(settings))),
+                AuthorityMode::Scripted | AuthorityMode::Custom => None,
+            },
         })
     }
 
@@ -207,6 +220,22 @@ impl Cluster {
         self.sim.resume_at(tick);
     }
 
+    /// Models the neighbour entities whose extent overlaps `region`, besides those the region,
+    /// spread and this cluster's own bodies call for, until tick `until` (inclusive; see
+    /// [`ClusterSim::tick`]). Queries in game code see only what the cluster models: watch the
+    /// reach of a query before it runs — an entity appears as a proxy once a replication frame
+    /// of its owner has been reconciled after this call, so at least
+    /// `replication_interval + 1` ticks ahead.
+    pub fn watch(&mut self, region: Region, until: u64) {
+        self.interest.watch(region, until);
+    }
+
+    /// Sets the policy asked for hand-offs at each replication frame (replacing the one
+    /// `ClusterConfig::authority` chose; see `crate::authority`).
+    pub fn set_authority_policy(&mut self, policy: Box<dyn AuthorityPolicy>) {
+        self.policy = Some(policy);
+    }
+
     /// Sets the hook that moves proxies in [`ProxyMode::Custom`].
     pub fn set_custom_proxy(&mut self, proxy: Box<dyn CustomProxy>) {
         self.custom_proxy = Some(proxy);
@@ -220,6 +249,19 @@ impl Cluster {
             ..*state
         };
         self.sim.spawn(&state, role)?;
+        Ok(())
+    }
+
+    /// Adds scenery: static level geometry (terrain, floors, walls) that every cluster loads
+    /// itself. It is a Fixed body owned by no cluster ([`ClusterId::SCENERY`]): never
+    /// replicated, never handed over, never adopted; writes on it are refused, and contacts
+    /// with it are nobody's to report. Every cluster of a world must add the same scenery.
+    pub fn spawn_scenery(&mut self, state: &EntityState) -> Result<(), ClusterError> {
+        let state = EntityState {
+            cluster_id: ClusterId::SCENERY,
+            ..*state
+        };
+        self.sim.spawn(&state, BodyRole::Fixed)?;
         Ok(())
     }
 
@@ -596,6 +638,7 @@ impl Cluster {
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
         // Reconcile the world with what the neighbours replicated.
+        self.interest.expire(self.sim.tick());
         let keep_last = !self.config.world.is_empty();
         for frame in frames.replication {
             self.reconcile(&frame);
@@ -636,6 +679,24 @@ impl Cluster {
                     continue;
                 }
                 match self.sim.info(routed.op.target()) {
+                    // Handed over since the issuer routed it: sent on, once, to the owner this
+                    // cluster knows.
+                    Some(info)
+                        if info.cluster_id != self.config.cluster_id
+                            && !routed.forwarded
+                            && self.config.neighbours.contains(&info.cluster_id)
+                            && self.neighbour_status(info.cluster_id)
+                                != Some(NeighbourStatus::Silent) =>
+                    {
+                        self.outgoing_ops
+                            .entry(info.cluster_id)
+                            .or_default()
+                            .push(RoutedOp {
+                                forwarded: true,
+                                ..*routed
+                            });
+                        self.stats.ops_forwarded += 1;
+                    }
                     Some(info) if info.cluster_id == self.config.cluster_id => {
                         match self.sim.apply_op(&routed.op) {
                             Ok(()) => {
@@ -677,10 +738,14 @@ impl Cluster {
         }
     }
 
+    /// How long a replicated pose stands before the next frame can replace it, seconds: the
+    /// sweep an extent is grown by (see `crate::interest`).
+    fn sweep_s(&self) -> f32 {
+        (self.config.replication_interval.max(1) + 1) as f32 * self.config.dt
+    }
+
     fn visible(&self, state: &EntityState) -> bool {
-        self.config
-            .region
-            .contains_within(state.position, self.config.spread)
+        self.interest.covers(&extent(state, self.sweep_s()))
     }
 
     /// Brings the world in line with one neighbour's replication frame.
@@ -689,10 +754,10 @@ impl Cluster {
         let mut listed: IdMap<EntityId, ()> = IdMap::default();
         for state in &frame.states {
             let limit = self.config.max_magnitude;
-            if ![state.position, state.linvel, state.angvel]
+            let absurd = ![state.position, state.linvel, state.angvel]
                 .into_iter()
-                .all(|v| within(v, limit))
-            {
+                .all(|v| within(v, limit));
+            if absurd || seam_sim::check_state(state).is_err() {
                 self.stats.states_rejected += 1;
                 continue;
             }
@@ -820,6 +885,10 @@ impl Cluster {
                 (false, true) => owner_a,
                 _ => continue,
             };
+            if !self.config.neighbours.contains(&destination) {
+                // Scenery: nobody's to report to.
+                continue;
+            }
             self.outgoing_contacts
                 .entry(destination)
                 .or_default()
@@ -833,18 +902,64 @@ impl Cluster {
         }
     }
 
+    /// Asks the authority policy which of the `owned` entities to hand over in this frame, and
+    /// queues those hand-offs that are valid and not already queued by game code.
+    fn ask_policy(&mut self, owned: &[(EntityState, BodyRole)]) {
+        let Some(policy) = self.policy.as_mut() else {
+            return;
+        };
+        let neighbours: Vec<NeighbourView> = self
+            .config
+            .neighbours
+            .iter()
+            .map(|&id| NeighbourView {
+                id,
+                region: self
+                    .config
+                    .world
+                    .iter()
+                    .find(|c| c.id == id)
+                    .map(|c| c.region),
+                alive: self
+                    .liveness
+                    .get(&id)
+                    .is_none_or(|peer| peer.status != NeighbourStatus::Silent),
+            })
+            .collect();
+        let view = AuthorityView {
+            cluster: self.config.cluster_id,
+            tick: self.sim.tick(),
+            region: self.config.region,
+            lookahead_s: self.config.dt * self.config.replication_interval.max(1) as f32,
+            neighbours: &neighbours,
+            owned,
+        };
+        let mut handoffs = Vec::new();
+        policy.decide(&view, &mut handoffs);
+        for (entity, to) in handoffs {
+            if self.transfers.contains_key(&entity) {
+                continue;
+            }
+            if self.transfer_authority(entity, to).is_ok() {
+                self.stats.handoffs_by_policy += 1;
+            }
+        }
+    }
+
     /// Publishes this tick's replication frame (every `replication_interval` ticks, with any
     /// hand-offs) and one events frame per neighbour.
     fn publish(&mut self) -> Result<(), ClusterError> {
         let me = self.config.cluster_id;
         let tick = self.sim.tick();
         if tick.is_multiple_of(self.config.replication_interval) {
-            let mut states: Vec<EntityState> = self
+            let owned: Vec<(EntityState, BodyRole)> = self
                 .sim
                 .entities()
                 .filter(|(_, info)| info.cluster_id == me)
-                .filter_map(|(id, _)| self.sim.state(id))
+                .filter_map(|(id, info)| self.sim.state(id).map(|s| (s, info.role)))
                 .collect();
+            self.ask_policy(&owned);
+            let mut states: Vec<EntityState> = owned.into_iter().map(|(s, _)| s).collect();
             for state in &mut states {
                 if let Some(&to) = self.transfers.get(&state.id) {
                     // The new owner rides with the final pose and velocity, read before the body
@@ -852,6 +967,12 @@ impl Cluster {
                     state.cluster_id = to;
                 }
             }
+            let (sweep_s, spread) = (self.sweep_s(), self.config.spread);
+            self.interest.follow(
+                states.iter().filter(|s| s.cluster_id == me),
+                sweep_s,
+                spread,
+            );
             let frame = ReplicationFrame {
                 from: me,
                 tick,

@@ -3,6 +3,8 @@
 use seam_sim::wire::{ClusterId, EntityState};
 use seam_sim::{ClusterSim, SimError};
 
+use crate::authority::AuthorityMode;
+
 /// An axis-aligned box of the world, metres.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Region {
@@ -35,9 +37,28 @@ impl Region {
             .sum()
     }
 
-    /// Whether `point` lies within the region grown by `margin` on every side.
+    /// Whether `point` lies within the region grown by `margin` on every side (a negative
+    /// margin shrinks it).
     pub fn contains_within(&self, point: [f32; 3], margin: f32) -> bool {
         (0..3).all(|i| point[i] >= self.min[i] - margin && point[i] <= self.max[i] + margin)
+    }
+
+    /// The region grown by `margin` on every side.
+    pub fn grown(&self, margin: f32) -> Region {
+        Region {
+            min: self.min.map(|v| v - margin),
+            max: self.max.map(|v| v + margin),
+        }
+    }
+
+    /// Whether the two boxes touch or overlap.
+    pub fn overlaps(&self, other: &Region) -> bool {
+        (0..3).all(|i| self.min[i] <= other.max[i] && other.min[i] <= self.max[i])
+    }
+
+    /// Whether `other` lies wholly inside this region.
+    pub fn contains(&self, other: &Region) -> bool {
+        (0..3).all(|i| self.min[i] <= other.min[i] && other.max[i] <= self.max[i])
     }
 }
 
@@ -96,8 +117,13 @@ pub struct ClusterConfig {
     pub max_magnitude: f32,
     /// Every cluster of the world, with its region and neighbours. With it, the survivors of a
     /// neighbour taken for dead agree, without talking, on which of them adopts each of its
-    /// entities (see `crate::adoption`). Empty: a dead neighbour's entities are not adopted.
+    /// entities (see `crate::adoption`), and the [`AuthorityMode::Spatial`] policy knows where
+    /// its neighbours are. Empty: a dead neighbour's entities are not adopted, and `Spatial`
+    /// hands nothing over.
     pub world: Vec<WorldCluster>,
+    /// Which hand-offs the cluster makes besides those game code asks for (see
+    /// `crate::authority`).
+    pub authority: AuthorityMode,
 }
 
 /// One cluster of the world, as every cluster is told it.
@@ -112,8 +138,10 @@ pub struct WorldCluster {
 }
 
 impl ClusterConfig {
-    /// A cluster observing everything, with Fixed proxies, 60 Hz, replication every tick, and
-    /// neighbours taken for dead after 60 silent ticks.
+    /// A cluster observing everything, with Fixed proxies, 60 Hz, replication every tick,
+    /// neighbours taken for dead after 60 silent ticks, and the [`AuthorityMode::Spatial`]
+    /// policy (which, observing everything, hands nothing over until given a region and a
+    /// world map).
     pub fn new(cluster_id: ClusterId, neighbours: Vec<ClusterId>, transport: &str) -> Self {
         let sim = seam_sim::SimConfig::new(cluster_id);
         Self {
@@ -130,6 +158,7 @@ impl ClusterConfig {
             neighbour_timeout_ticks: 60,
             max_magnitude: 1.0e6,
             world: Vec::new(),
+            authority: AuthorityMode::default(),
         }
     }
 }

@@ -67,8 +67,13 @@
 //!
 //! # Proxy lifecycle
 //!
-//! A neighbour entity is modelled only while its replicated position lies inside this cluster's
-//! `region` grown by `spread`. It is spawned as a proxy the first time its owner lists it there,
+//! A neighbour entity is modelled only while its **extent** — the box its shape covers at its
+//! replicated pose, grown by the way it sweeps before the next frame can replace that pose —
+//! overlaps this cluster's `region` grown by `spread`, or the room (extent and sweep, grown by
+//! `spread`) around one of this cluster's own bodies that has left that region: a floor whose
+//! centre is far away still reaches the seam, a fast shot is modelled before it arrives, and a
+//! body pushed over the seam meets what is there (see `interest`). It is spawned as a proxy
+//! the first time its owner lists it there,
 //! updated from each replication frame — `Fixed`: set to the pose; `KinematicVelocityBased`:
 //! given the velocity that carries it to where the entity will be at the next update (so it
 //! moves between updates); `Custom`: a [`CustomProxy`] — and despawned when it leaves the region
@@ -158,7 +163,11 @@
 //! - `cluster` — [`Cluster`]: the tick, reconcile, routing, contacts, publish.
 //! - `config` — [`ClusterConfig`], [`Region`], [`WorldCluster`], [`ProxyMode`], [`CustomProxy`].
 //! - `inbox` — frames by sender and step count, for lock-step.
+//! - `interest` — which neighbour entities are modelled: [`extent`] against the region and
+//!   the room around this cluster's own bodies.
 //! - `adoption` — who adopts a dead neighbour's entities.
+//! - `authority` — who should own an entity: [`AuthorityPolicy`], the built-in [`Spatial`]
+//!   policy, [`AuthorityMode`].
 //! - `lockstep` — [`lockstep_round`]: N clusters of one process, tick by tick.
 //! - `clock` — the host monotonic clock ([`monotonic_ns`]) and routed-op stage times
 //!   ([`OpTiming`]: issued, published, received, applied).
@@ -167,19 +176,25 @@
 //! - `error` — [`ClusterError`].
 
 mod adoption;
+mod authority;
 mod channels;
 mod clock;
 mod cluster;
 mod config;
 mod error;
 mod inbox;
+mod interest;
 mod lockstep;
 mod stats;
 
+pub use authority::{
+    AuthorityMode, AuthorityPolicy, AuthorityView, NeighbourView, Spatial, SpatialSettings,
+};
 pub use channels::{physics_events, replication};
 pub use clock::{OpTiming, monotonic_ns};
 pub use cluster::{Cluster, MAX_OP_TIMINGS, NeighbourStatus};
 pub use config::{ClusterConfig, CustomProxy, ProxyMode, Region, WorldCluster};
 pub use error::ClusterError;
+pub use interest::extent;
 pub use lockstep::lockstep_round;
 pub use stats::ClusterStats;

@@ -64,4 +64,11 @@ pub struct ClusterStats {
     /// Frames tagged further ahead than a live sender could be (see the crate docs on
     /// liveness): dropped as forged.
     pub frames_implausible: u64,
+    /// Of `handoffs_out`, those the authority policy asked for (the rest game code asked for,
+    /// or returned adopted entities).
+    pub handoffs_by_policy: u64,
+    /// Routed writes received for an entity this cluster no longer owned and sent on, once,
+    /// to the owner it knew (a forwarded op that misses again is dropped and counted in
+    /// `ops_dropped_not_owner`).
+    pub ops_forwarded: u64,
 }

@@ -38,6 +38,9 @@ pub enum SimError {
         /// What is wrong.
         reason: &'static str,
     },
+    /// The write targets scenery, which no cluster owns and nothing moves.
+    #[error("entity {0} is scenery: static, loaded by every cluster, owned by none")]
+    Scenery(EntityId),
     /// The write targets an entity owned by another cluster and no router takes it.
     #[error("entity {entity} is owned by cluster {owner}; this handle cannot route writes to it")]
     NotOwned {

@@ -243,6 +243,8 @@ impl PhysicsHandle<'_> {
         if entry.info.cluster_id == self.cluster_id {
             body::apply_op(self.world, self.stale, entry, &op);
             Ok(WriteOutcome::Applied)
+        } else if entry.info.cluster_id == ClusterId::SCENERY {
+            Err(SimError::Scenery(op.target()))
         } else {
             self.router.route(entry.info.cluster_id, op)?;
             Ok(WriteOutcome::Routed)

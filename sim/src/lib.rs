@@ -63,3 +63,4 @@ pub use error::SimError;
 pub use handle::{
     JointId, JointSpec, LocalOnly, PhysicsHandle, RayHit, TickContext, WriteOutcome, WriteRouter,
 };
+pub use validate::check_state;

@@ -57,11 +57,15 @@ pub(crate) fn body_shape(entity: EntityId, body: &BodyShape) -> Result<(), SimEr
     Ok(())
 }
 
-/// Checks a whole state: pose, velocities, shape.
-pub(crate) fn state(state: &EntityState) -> Result<(), SimError> {
+/// Checks a whole state: finite pose and velocities, a unit rotation, a shape with positive
+/// finite sizes and density — what spawning needs. The proxy layer checks every received state
+/// with it, modelled or not.
+pub fn check_state(state: &EntityState) -> Result<(), SimError> {
     motion(state)?;
     body_shape(state.id, &state.body)
 }
+
+pub(crate) use check_state as state;
 
 /// Checks a state's pose and velocities.
 pub(crate) fn motion(state: &EntityState) -> Result<(), SimError> {

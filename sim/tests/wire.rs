@@ -80,6 +80,7 @@ fn events() -> PhysicsEventsFrame {
                 op,
                 issued_ns: 1000 + i as u64,
                 issued_tick: 99,
+                forwarded: false,
             })
             .collect(),
         contacts: vec![ContactReport {

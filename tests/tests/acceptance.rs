@@ -4,7 +4,10 @@
 
 use std::time::Duration;
 
-use seam_proxy::{Cluster, ClusterConfig, CustomProxy, ProxyMode, Region, lockstep_round};
+use seam_proxy::{
+    AuthorityPolicy, AuthorityView, Cluster, ClusterConfig, CustomProxy, ProxyMode, Region,
+    lockstep_round,
+};
 use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
 use seam_sim::{BodyRole, JointSpec, WriteOutcome};
 use seam_tests::TestContext;
@@ -41,7 +44,9 @@ on_every_transport!(
     joint_refused_across_clusters,
     velocity_proxy_smoother_than_fixed,
     flip_only_from_the_owner,
-    op_after_hand_off_is_dropped_not_applied,
+    op_after_hand_off_is_forwarded_once,
+    forwarded_op_is_never_forwarded_again,
+    scenery_is_loaded_everywhere_and_never_replicated,
     only_the_region_is_modelled,
     custom_proxy_hook_moves_proxies,
     third_cluster_routes_to_the_new_owner,
@@ -464,7 +469,9 @@ fn flip_only_from_the_owner(ctx: &TestContext) {
 
 /// B writes to A's entity in the very tick A hands it to B: the op reaches A after A gave it
 /// away, and A drops and counts it instead of applying it.
-fn op_after_hand_off_is_dropped_not_applied(ctx: &TestContext) {
+/// A write routed to the old owner after it handed the entity over is forwarded, once, to the
+/// new owner, which applies it: Δv = J/m, exactly once.
+fn op_after_hand_off_is_forwarded_once(ctx: &TestContext) {
     let mut clusters = pair(ctx, false, |_| {});
     let b = clusters[1].id();
     let entity = ball([0.0; 3], [0.0; 3]);
@@ -475,34 +482,161 @@ fn op_after_hand_off_is_dropped_not_applied(ctx: &TestContext) {
     clusters[0]
         .transfer_authority(entity.id, b)
         .expect("hand over");
+    let mass = 1000.0 * 4.0 / 3.0 * std::f32::consts::PI * 0.125;
     lockstep_round(&mut clusters, TIMEOUT, |index, _, physics| {
         if index == 1 {
             // B still sees A as the owner: the write is routed to A.
             assert_eq!(
-                physics.apply_impulse(entity.id, [1000.0, 0.0, 0.0]),
+                physics.apply_impulse(entity.id, [mass, 0.0, 0.0]),
                 Ok(WriteOutcome::Routed)
             );
         }
     })
     .expect("round");
     rounds(&mut clusters, 3);
-    assert_eq!(
-        clusters[0].stats().ops_dropped_not_owner,
-        1,
-        "{:?}",
-        clusters[0].stats()
-    );
-    assert_eq!(clusters[0].stats().ops_applied, 0);
+    let (a, b) = (clusters[0].stats(), clusters[1].stats());
+    assert_eq!(a.ops_forwarded, 1, "A sent it on: {a:?}");
+    assert_eq!((a.ops_applied, a.ops_dropped_not_owner), (0, 0), "{a:?}");
+    assert_eq!(b.ops_applied, 1, "B applied it: {b:?}");
     let v = clusters[1]
         .sim()
         .state(entity.id)
         .expect("B's body now")
         .linvel;
-    assert_eq!(v, [0.0; 3], "the op was applied nowhere");
+    assert!((v[0] - 1.0).abs() < 1e-4, "Δv = J/m, once: {v:?}");
 }
 
-/// B models A's entities only inside its region grown by the spread: an entity crossing into it
-/// gets a proxy, one leaving loses it.
+/// An op is forwarded at most once: when it reaches a cluster that no longer owns the target
+/// after being forwarded, it is dropped and counted, never sent on again or applied.
+fn forwarded_op_is_never_forwarded_again(ctx: &TestContext) {
+    let ids: Vec<ClusterId> = (0..3).map(|_| ClusterId::random()).collect();
+    let mut clusters: Vec<Cluster> = ids
+        .iter()
+        .map(|&me| {
+            let others = ids.iter().copied().filter(|&c| c != me).collect();
+            let mut config = ClusterConfig::new(me, others, &ctx.url());
+            config.gravity = [0.0; 3];
+            Cluster::new(config).expect("cluster")
+        })
+        .collect();
+    let entity = ball([0.0; 3], [0.0; 3]);
+    clusters[0]
+        .spawn_owned(&entity, BodyRole::Dynamic)
+        .expect("spawn");
+    rounds(&mut clusters, 2);
+    // A hands it to B; in the same round C, still seeing A as the owner, writes to it. B's
+    // policy hands everything it owns to C at once, so the write A forwards to B finds it gone.
+    clusters[1].set_authority_policy(Box::new(HandEverythingTo(ids[2])));
+    clusters[0]
+        .transfer_authority(entity.id, ids[1])
+        .expect("hand over");
+    lockstep_round(&mut clusters, TIMEOUT, |index, _, physics| {
+        if index == 2 {
+            assert_eq!(
+                physics.apply_impulse(entity.id, [1.0, 0.0, 0.0]),
+                Ok(WriteOutcome::Routed)
+            );
+        }
+    })
+    .expect("round");
+    rounds(&mut clusters, 4);
+    assert_eq!(
+        clusters[2].sim().info(entity.id).map(|i| i.cluster_id),
+        Some(ids[2]),
+        "C owns it"
+    );
+    let stats: Vec<_> = clusters.iter().map(|c| c.stats()).collect();
+    let forwarded: u64 = stats.iter().map(|s| s.ops_forwarded).sum();
+    let applied: u64 = stats.iter().map(|s| s.ops_applied).sum();
+    let dropped: u64 = stats.iter().map(|s| s.ops_dropped_not_owner).sum();
+    assert_eq!(
+        (forwarded, applied, dropped),
+        (1, 0, 1),
+        "forwarded once by A, dropped by B: {stats:?}"
+    );
+    let v = clusters[2].sim().state(entity.id).expect("C's body").linvel;
+    assert_eq!(v, [0.0; 3], "applied nowhere");
+}
+
+/// An authority policy that hands every entity its cluster owns to one neighbour.
+struct HandEverythingTo(ClusterId);
+
+impl AuthorityPolicy for HandEverythingTo {
+    fn decide(&mut self, view: &AuthorityView<'_>, handoffs: &mut Vec<(EntityId, ClusterId)>) {
+        handoffs.extend(view.owned.iter().map(|(state, _)| (state.id, self.0)));
+    }
+}
+
+/// Scenery is every cluster's and nobody's: each cluster loads it itself, no frame carries
+/// it, writes on it are refused, and contacts with it are reported to no one.
+fn scenery_is_loaded_everywhere_and_never_replicated(ctx: &TestContext) {
+    let mut clusters = pair(ctx, true, |_| {});
+    let floor = EntityState {
+        id: EntityId::random(),
+        cluster_id: ClusterId::random(),
+        tick: 0,
+        position: [0.0, -0.5, 0.0],
+        rotation: [0.0, 0.0, 0.0, 1.0],
+        linvel: [0.0; 3],
+        angvel: [0.0; 3],
+        body: BodyShape {
+            shape: Shape::Cuboid {
+                half_extents: [20.0, 0.5, 20.0],
+            },
+            density: 1.0,
+            ccd: false,
+        },
+    };
+    for cluster in &mut clusters {
+        cluster.spawn_scenery(&floor).expect("scenery");
+    }
+    let crate_ = ball([0.0, 2.0, 0.0], [0.0; 3]);
+    clusters[0]
+        .spawn_owned(&crate_, BodyRole::Dynamic)
+        .expect("spawn");
+    let mut refused = None;
+    for round in 0..90 {
+        lockstep_round(&mut clusters, TIMEOUT, |index, _, physics| {
+            if index == 1 && round == 10 {
+                refused = Some(physics.apply_impulse(floor.id, [0.0, 100.0, 0.0]));
+            }
+        })
+        .expect("round");
+    }
+    assert_eq!(
+        refused,
+        Some(Err(seam_sim::SimError::Scenery(floor.id))),
+        "a write on scenery is refused"
+    );
+    for cluster in &clusters {
+        let info = cluster.sim().info(floor.id).expect("every cluster has it");
+        assert_eq!(
+            (info.cluster_id, info.role),
+            (ClusterId::SCENERY, BodyRole::Fixed)
+        );
+        assert_eq!(cluster.stats().contacts_sent, 0, "nobody to report to");
+        assert_eq!(cluster.stats().ops_routed, 0);
+    }
+    // The ball landed on the floor in its owner's world, and its proxy rests there too.
+    let resting = clusters[0]
+        .sim()
+        .state(crate_.id)
+        .expect("A's ball")
+        .position[1];
+    assert!((resting - 0.5).abs() < 0.02, "on the floor: {resting}");
+    // Only the ball travels: A's frames hold one state (about 100 bytes) more than B's, which
+    // hold none (a second, the floor's, would double it).
+    let per_frame = |c: &Cluster| c.stats().replication_bytes / c.stats().ticks;
+    let (a, b) = (per_frame(&clusters[0]), per_frame(&clusters[1]));
+    assert!(
+        (80..=120).contains(&(a - b)),
+        "one state in A's frames ({a} B), none in B's ({b} B)"
+    );
+}
+
+/// B models A's entities only where their extent — the ball's 0.5 m radius, grown along its
+/// velocity by the two ticks before a newer frame replaces its pose — reaches B's region grown
+/// by the spread: an entity crossing into it gets a proxy, one leaving loses it.
 fn only_the_region_is_modelled(ctx: &TestContext) {
     let mut clusters = pair(ctx, false, |config| {
         config.region = Region {
@@ -533,13 +667,14 @@ fn only_the_region_is_modelled(ctx: &TestContext) {
             "an entity 40 m outside is not modelled"
         );
     }
-    // The walker goes from -4 to +14 m; B models it only while within [-2, 12] (one tick late).
-    let margin = 6.0 / 60.0 + 1e-3;
+    // The walker goes from -4 to +14 m; B models it while its extent, from x - 0.5 to
+    // x + 0.5 + 0.2 (6 m/s for two ticks), reaches [-2, 12]: x in [-2.7, 12.5], one tick late.
+    let late = 6.0 / 60.0 + 1e-3;
     for &(x, modelled) in &seen {
-        if x < -2.0 - margin || x > 12.0 + margin {
+        if x < -2.7 - late || x > 12.5 + late {
             assert!(!modelled, "modelled at x = {x}");
         }
-        if x > -2.0 + margin && x < 12.0 - margin {
+        if x > -2.7 + late && x < 12.5 - late {
             assert!(modelled, "not modelled at x = {x}");
         }
     }

@@ -4,7 +4,7 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
-use seam_bench::node::ProxyModeArg;
+use seam_bench::node::{AuthorityArgs, ProxyModeArg};
 use seam_bench::run::{self, RunPlan};
 use seam_tests::{PATIENCE, TestContext, receive, redis_url, scene_path};
 use seam_transport::{Backend, OpenError, SubscribeError, Transport};
@@ -269,6 +269,7 @@ fn redis_user_and_password_in_the_url_work() {
             rate: 300.0,
             ticks: Some(600),
             proxy_mode: ProxyModeArg::Fixed,
+            authority: AuthorityArgs::default(),
             replication_interval: 1,
             layers: 1,
             run_id: run::fresh_run_id(),

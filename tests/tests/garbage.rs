@@ -147,6 +147,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                 op,
                 issued_ns: 0,
                 issued_tick: 0,
+                forwarded: false,
             })
             .collect(),
         contacts: Vec::new(),

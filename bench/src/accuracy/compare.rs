@@ -6,10 +6,13 @@ use seam_sim::BodyRole;
 use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap, Shape};
 use serde::Serialize;
 
+use seam_proxy::Region;
+
 use crate::pod::Pod;
+use crate::scene::Scene;
 
 /// Accuracy of a split run against its reference.
-#[derive(Debug, Clone, Copy, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize)]
 pub struct Accuracy {
     /// Position error of the scene's dynamic bodies (owner's world against the reference), RMS
     /// over bodies and ticks, m. Projectiles are left out: once one hits in one run and not in
@@ -17,11 +20,15 @@ pub struct Accuracy {
     pub position_rms_m: f64,
     /// Largest position error, m.
     pub position_max_m: f64,
+    /// The body with the largest position error (scene name, `#i` for a grid copy) and the
+    /// tick it was largest at: where to look first.
+    pub worst_body: Option<(String, u64)>,
     /// Orientation error, RMS, degrees.
     pub rotation_rms_deg: f64,
     /// Largest orientation error, degrees.
     pub rotation_max_deg: f64,
-    /// Projectile hits (contact starts with a projectile, by entity pair) in the reference.
+    /// Projectile hits (contact starts between a projectile and a body that is not one, by
+    /// entity pair) in the reference.
     pub hits_reference: u64,
     /// Projectile hits in the split run (any cluster's world, reported ones included).
     pub hits_split: u64,
@@ -50,6 +57,11 @@ pub struct Accuracy {
     /// Body-ticks where it was only a proxy everywhere: between the old owner's hand-off frame
     /// and the new owner's tick that reads it (no step happens in between in lock-step).
     pub in_transit_ticks: u64,
+    /// Bodies that escaped the split world at some tick while their single-world copy had not:
+    /// below the lowest static surface (the lowest top of a Fixed body or scenery, if the scene
+    /// has any) or outside every cluster's region. A body falling through a floor its owner
+    /// did not model, or flying off because a proxy was missing, counts here.
+    pub escaped_bodies: u64,
 }
 
 /// Accumulates the comparison over a run.
@@ -65,6 +77,25 @@ pub struct Comparison {
     split_hits: BTreeMap<(EntityId, EntityId), u64>,
     /// Last split sighting: owner, state; and the reference state then.
     last: IdMap<EntityId, (ClusterId, EntityState, EntityState)>,
+    /// Where a body has escaped the world (see [`Accuracy::escaped_bodies`]).
+    bounds: WorldBounds,
+    /// Bodies that escaped.
+    escaped: HashSet<EntityId>,
+    /// The body with the largest position error so far, and when.
+    worst: Option<(EntityId, u64)>,
+}
+
+/// What a body must stay within: above the lowest static surface, inside a region.
+struct WorldBounds {
+    floor: Option<f32>,
+    regions: Vec<Region>,
+}
+
+impl WorldBounds {
+    fn escaped(&self, p: [f32; 3]) -> bool {
+        self.floor.is_some_and(|floor| p[1] < floor)
+            || !self.regions.iter().any(|r| r.contains_within(p, 0.0))
+    }
 }
 
 fn mass(state: &EntityState) -> f64 {
@@ -118,7 +149,9 @@ fn record_hits(
     hits: &mut BTreeMap<(EntityId, EntityId), u64>,
 ) {
     for contact in pod.cluster().sim().contacts() {
-        if contact.started && (projectiles.contains(&contact.a) || projectiles.contains(&contact.b))
+        // A hit is a projectile meeting something that is not a projectile: two shots meeting
+        // (ricochets piling up) are not what a shooter aims at.
+        if contact.started && (projectiles.contains(&contact.a) != projectiles.contains(&contact.b))
         {
             let pair = (contact.a.min(contact.b), contact.a.max(contact.b));
             hits.entry(pair).or_insert(tick);
@@ -127,9 +160,28 @@ fn record_hits(
 }
 
 impl Comparison {
-    /// A comparison of runs stepping `dt` seconds a tick.
-    pub fn new(_dt: f32) -> Self {
+    /// A comparison of `scene` split against its single-world `reference`, which has just been
+    /// built (its static bodies give the lowest surface).
+    pub fn new(scene: &Scene, reference: &Pod) -> Self {
+        let sim = reference.cluster().sim();
+        let floor = sim
+            .entities()
+            .filter(|(_, info)| info.role == BodyRole::Fixed)
+            .filter_map(|(id, _)| sim.state(id))
+            .map(|state| seam_proxy::extent(&state, 0.0).max[1])
+            .min_by(f32::total_cmp);
+        let regions = scene
+            .clusters
+            .iter()
+            .map(|c| Region {
+                min: c.region.min,
+                max: c.region.max,
+            })
+            .collect();
         Self {
+            bounds: WorldBounds { floor, regions },
+            escaped: HashSet::new(),
+            worst: None,
             tick: 0,
             pos_sq: 0.0,
             rot_sq: 0.0,
@@ -168,12 +220,18 @@ impl Comparison {
                 if projectiles.contains(&state.id) {
                     continue;
                 }
+                if self.bounds.escaped(state.position) && !self.bounds.escaped(truth.position) {
+                    self.escaped.insert(state.id);
+                }
                 let error = distance(state.position, truth.position);
                 let turn = angle_deg(state.rotation, truth.rotation);
                 self.pos_sq += error * error;
                 self.rot_sq += turn * turn;
                 self.samples += 1;
-                self.acc.position_max_m = self.acc.position_max_m.max(error);
+                if error > self.acc.position_max_m {
+                    self.acc.position_max_m = error;
+                    self.worst = Some((state.id, tick));
+                }
                 self.acc.rotation_max_deg = self.acc.rotation_max_deg.max(turn);
                 if let Some((was, before, truth_before)) = self.last.get(&state.id)
                     && *was != owner
@@ -226,8 +284,9 @@ impl Comparison {
         }
     }
 
-    /// The accuracy over everything observed.
-    pub fn finish(mut self) -> Accuracy {
+    /// The accuracy over everything observed; `name` names an entity of the scene.
+    pub fn finish(mut self, name: impl Fn(EntityId) -> String) -> Accuracy {
+        self.acc.worst_body = self.worst.map(|(id, tick)| (name(id), tick));
         let n = self.samples.max(1) as f64;
         self.acc.position_rms_m = (self.pos_sq / n).sqrt();
         self.acc.rotation_rms_deg = (self.rot_sq / n).sqrt();
@@ -245,6 +304,7 @@ impl Comparison {
             }
         }
         let a = &mut self.acc;
+        a.escaped_bodies = self.escaped.len() as u64;
         a.hits_reference = self.reference_hits.len() as u64;
         a.hits_split = self.split_hits.len() as u64;
         a.hits_matched = matched;

@@ -50,6 +50,7 @@ pub fn run_free_trial(
         rate: free.rate,
         ticks: Some(ticks),
         proxy_mode,
+        authority: settings.authority,
         replication_interval: settings.replication_interval,
         layers: 1,
         run_id: run_id.to_owned(),
@@ -64,6 +65,7 @@ pub fn run_free_trial(
         &Part::Reference,
         &PodSettings {
             proxy_mode: settings.proxy_mode,
+            authority: settings.authority.mode(),
             replication_interval: settings.replication_interval,
             ..PodSettings::new(
                 format!("local?prefix=seam_free_{}_{run_id}_", std::process::id()),
@@ -153,6 +155,7 @@ pub fn run_free_trial(
         accuracy,
         cost: Cost {
             tick_p50_us: p50s.get(p50s.len() / 2).copied().unwrap_or(0) as f64 / 1e3,
+            tick_sum_p50_us: p50s.iter().sum::<u64>() as f64 / 1e3,
             tick_p99_us: report
                 .pods
                 .iter()

@@ -19,6 +19,7 @@ use seam_proxy::ProxyMode;
 use serde::Serialize;
 
 use crate::latency::LatencyRecorder;
+use crate::node::AuthorityArgs;
 use crate::pod::{OpStages, Part, Pod, PodSettings};
 use crate::scene::{Event, Scene};
 pub use compare::{Accuracy, Comparison};
@@ -33,6 +34,8 @@ pub struct TrialSettings {
     /// How neighbour entities are modelled.
     #[serde(serialize_with = "proxy_mode_name")]
     pub proxy_mode: ProxyMode,
+    /// Which hand-offs the clusters make besides the scene's.
+    pub authority: AuthorityArgs,
     /// A replication frame every this many ticks.
     pub replication_interval: u64,
     /// Observation spread of every cluster, m (`None`: the scene's); see `interest`.
@@ -65,6 +68,7 @@ impl Default for TrialSettings {
     fn default() -> Self {
         Self {
             proxy_mode: ProxyMode::Fixed,
+            authority: AuthorityArgs::default(),
             replication_interval: 1,
             spread: None,
             interest: true,
@@ -117,6 +121,9 @@ pub struct Cost {
     pub tick_p50_us: f64,
     /// Worst p99 tick time of a split cluster, µs.
     pub tick_p99_us: f64,
+    /// The sum over the split clusters of each one's median tick time, µs: the CPU one tick
+    /// of the split world takes (against `reference_tick_p50_us` for the single world).
+    pub tick_sum_p50_us: f64,
     /// Replication bytes published per tick, all clusters.
     pub replication_bytes_per_tick: f64,
     /// Physics-events bytes published per tick, all clusters.
@@ -170,6 +177,7 @@ pub fn run_trial(
     let scene = settings.apply(scene.clone());
     let pod_settings = |transport: String| PodSettings {
         proxy_mode: settings.proxy_mode,
+        authority: settings.authority.mode(),
         replication_interval: settings.replication_interval,
         ..PodSettings::new(transport, run_id)
     };
@@ -194,7 +202,7 @@ pub fn run_trial(
         })
         .collect::<Result<Vec<_>, _>>()?;
 
-    let mut comparison = Comparison::new(scene.dt);
+    let mut comparison = Comparison::new(&scene, &reference);
     let mut tick_times: Vec<LatencyRecorder> = pods.iter().map(|_| Default::default()).collect();
     let mut reference_time = LatencyRecorder::default();
     let mut proxies_sum = 0u64;
@@ -229,9 +237,10 @@ pub fn run_trial(
         position_basis: "every tick",
         settings: *settings,
         ticks: scene.ticks,
-        accuracy: comparison.finish(),
+        accuracy: comparison.finish(|id| reference.entity_name(id)),
         cost: Cost {
             tick_p50_us: p50s.get(p50s.len() / 2).copied().unwrap_or(0) as f64 / 1e3,
+            tick_sum_p50_us: p50s.iter().sum::<u64>() as f64 / 1e3,
             tick_p99_us: tick_times
                 .iter()
                 .map(|t| t.summary().p99_ns)
@@ -261,20 +270,21 @@ pub fn table(r: &TrialResult) -> String {
     let (s, a, c) = (&r.settings, &r.accuracy, &r.cost);
     format!(
         "seam compare: {} split ({}) against one world, {} ticks\n\
-         settings: {} proxies, replication every {} tick(s), spread {}, projectiles {}, \
-         CCD {}\n\n\
+         settings: {} proxies, {} authority, replication every {} tick(s), spread {}, \
+         projectiles {}, CCD {}\n\n\
          accuracy\n\
-         \x20 position error       RMS {:.4} m, max {:.4} m (over {})\n\
+         \x20 position error       RMS {:.4} m, max {:.4} m (over {}){}\n\
          \x20 orientation error    RMS {:.3}°, max {:.3}°\n\
          \x20 projectile hits      {} in the single world, {} split, {} matched: recall {}, \
          precision {}, mean tick offset {:.2}\n\
          \x20 momentum error       max {:.4} kg·m/s, mean {:.5} of Σm|v|\n\
          \x20 hand-offs            {}: largest jump {:.5} m, {:.5} m/s\n\
          \x20 ownership            {} body-ticks with two owners, {} lost, {} in transit \
-         (hand-off read next tick)\n\n\
+         (hand-off read next tick); {} bodies escaped (fell through or flew off where the \
+         single world's did not)\n\n\
          cost (split run)\n\
-         \x20 tick time            p50 {:.1} µs (median cluster), p99 {:.1} µs (worst); one world \
-         p50 {:.1} µs\n\
+         \x20 tick time            p50 {:.1} µs (median cluster), p99 {:.1} µs (worst), p50s \
+         summed over clusters {:.1} µs; one world p50 {:.1} µs\n\
          \x20 bytes per tick       {:.0} replication, {:.0} physics events (all clusters)\n\
          \x20 proxies              {:.1} on average\n\
          \x20 routed ops           {}, delay p50 {} tick(s), max {}; whole p50 {:.1} µs, p99 {:.1} µs, \
@@ -283,6 +293,7 @@ pub fn table(r: &TrialResult) -> String {
         r.transport,
         r.ticks,
         mode_name(s.proxy_mode),
+        s.authority.label(),
         s.replication_interval,
         if s.interest {
             s.spread
@@ -297,6 +308,11 @@ pub fn table(r: &TrialResult) -> String {
         a.position_rms_m,
         a.position_max_m,
         r.position_basis,
+        a.worst_body
+            .as_ref()
+            .map_or(String::new(), |(name, tick)| format!(
+                ", largest: {name} at tick {tick}"
+            )),
         a.rotation_rms_deg,
         a.rotation_max_deg,
         a.hits_reference,
@@ -313,8 +329,10 @@ pub fn table(r: &TrialResult) -> String {
         a.duplicate_owner_ticks,
         a.missing_entity_ticks,
         a.in_transit_ticks,
+        a.escaped_bodies,
         c.tick_p50_us,
         c.tick_p99_us,
+        c.tick_sum_p50_us,
         c.reference_tick_p50_us,
         c.replication_bytes_per_tick,
         c.events_bytes_per_tick,

@@ -44,7 +44,7 @@ use std::time::{Duration, Instant};
 use rustix::process::{Pid, Signal, kill_process};
 use seam_proxy::monotonic_ns;
 
-use crate::node::{NodeLine, NodeProgress, NodeReport, ProxyModeArg};
+use crate::node::{AuthorityArgs, NodeLine, NodeProgress, NodeReport, ProxyModeArg};
 use crate::pod::SceneIds;
 use crate::redis_server::RedisServer;
 use crate::run::{PodLaunch, PodLine, RunPlan, fresh_run_id, spawn_pod};
@@ -175,6 +175,7 @@ pub fn run(
         rate: plan.rate,
         ticks: Some(ticks),
         proxy_mode: ProxyModeArg::Fixed,
+        authority: AuthorityArgs::default(),
         replication_interval: 1,
         layers: plan.layers,
         run_id: run_id.clone(),

@@ -19,7 +19,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use seam_proxy::{ProxyMode, monotonic_ns};
+use seam_proxy::{AuthorityMode, ProxyMode, SpatialSettings, monotonic_ns};
 
 use crate::latency::LatencyRecorder;
 use crate::pod::{Part, Pod, PodSettings};
@@ -40,6 +40,108 @@ impl From<ProxyModeArg> for ProxyMode {
         match mode {
             ProxyModeArg::Fixed => ProxyMode::Fixed,
             ProxyModeArg::Kinematic => ProxyMode::KinematicVelocityBased,
+        }
+    }
+}
+
+/// Which hand-offs pods make, as a command-line value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AuthorityArg {
+    /// Authority follows entities: an entity past a seam by the margin is handed to the
+    /// cluster whose region it is in (`seam_proxy::Spatial`), besides the scene's hand-offs.
+    #[default]
+    Spatial,
+    /// Only the scene's hand-off events move entities.
+    Scripted,
+}
+
+impl AuthorityArg {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            AuthorityArg::Spatial => "spatial",
+            AuthorityArg::Scripted => "scripted",
+        }
+    }
+}
+
+/// Which hand-offs a pod makes, and how the spatial policy decides them: the flags `seam
+/// node`, `run` and `compare` share.
+#[derive(Debug, Clone, Copy, PartialEq, clap::Args, serde::Serialize)]
+pub struct AuthorityArgs {
+    /// Which hand-offs the clusters make: `spatial` (authority follows entities into the region
+    /// they are in, and the scene's hand-offs) or `scripted` (the scene's hand-offs only).
+    #[arg(long, value_enum, default_value_t = AuthorityArg::Spatial)]
+    pub authority: AuthorityArg,
+    /// Spatial: how far past a seam, m, a body's centre must be (where it will be at the next
+    /// replication frame) before it is handed over, and before it comes back.
+    #[arg(long, default_value_t = SpatialSettings::default().margin)]
+    pub handoff_margin: f32,
+    /// Spatial: replication frames in a row the hand-off must be called for.
+    #[arg(long, default_value_t = SpatialSettings::default().dwell_ticks)]
+    pub handoff_dwell: u32,
+}
+
+impl Default for AuthorityArgs {
+    fn default() -> Self {
+        let spatial = SpatialSettings::default();
+        Self {
+            authority: AuthorityArg::Spatial,
+            handoff_margin: spatial.margin,
+            handoff_dwell: spatial.dwell_ticks,
+        }
+    }
+}
+
+impl AuthorityArgs {
+    /// Only the scene's hand-offs.
+    pub fn scripted() -> Self {
+        Self {
+            authority: AuthorityArg::Scripted,
+            ..Self::default()
+        }
+    }
+
+    /// The cluster setting these flags stand for.
+    pub fn mode(&self) -> AuthorityMode {
+        match self.authority {
+            AuthorityArg::Spatial => AuthorityMode::Spatial(SpatialSettings {
+                margin: self.handoff_margin,
+                dwell_ticks: self.handoff_dwell,
+            }),
+            AuthorityArg::Scripted => AuthorityMode::Scripted,
+        }
+    }
+
+    /// The flags again, for a pod's command line.
+    pub fn to_args(&self) -> Vec<String> {
+        vec![
+            "--authority".into(),
+            self.authority.name().into(),
+            "--handoff-margin".into(),
+            self.handoff_margin.to_string(),
+            "--handoff-dwell".into(),
+            self.handoff_dwell.to_string(),
+        ]
+    }
+
+    /// How a table names the setting: `spatial` (with any non-default margin or dwell) or
+    /// `scripted`.
+    pub fn label(&self) -> String {
+        let spatial = SpatialSettings::default();
+        match self.authority {
+            AuthorityArg::Scripted => "scripted".into(),
+            AuthorityArg::Spatial
+                if self.handoff_margin == spatial.margin
+                    && self.handoff_dwell == spatial.dwell_ticks =>
+            {
+                "spatial".into()
+            }
+            AuthorityArg::Spatial => format!(
+                "spatial (margin {} m, dwell {})",
+                self.handoff_margin, self.handoff_dwell
+            ),
         }
     }
 }
@@ -78,6 +180,9 @@ pub struct NodeArgs {
     /// How neighbour entities are modelled.
     #[arg(long, value_enum, default_value_t = ProxyModeArg::Fixed)]
     pub proxy_mode: ProxyModeArg,
+    /// Which hand-offs the pod makes.
+    #[command(flatten)]
+    pub authority: AuthorityArgs,
     /// A replication frame every this many ticks.
     #[arg(long, default_value_t = 1)]
     pub replication_interval: u64,
@@ -143,6 +248,7 @@ pub fn run_node(
     };
     let settings = PodSettings {
         proxy_mode: args.proxy_mode.into(),
+        authority: args.authority.mode(),
         replication_interval: args.replication_interval,
         neighbour_timeout_ticks: args.neighbour_timeout_ticks,
         rejoin: args.rejoin,

@@ -165,6 +165,7 @@ fn measure(
                 },
                 issued_ns: monotonic_ns(),
                 issued_tick: round,
+                forwarded: false,
             });
         }
         // Sized for the largest stamp (varints grow with the value); stamped at the send.

@@ -1,6 +1,6 @@
 //! Explosions and raycast volleys, run as user code inside a tick.
 
-use seam_sim::wire::Shape;
+use seam_sim::wire::{ClusterId, Shape};
 use seam_sim::{BodyRole, PhysicsHandle, TickContext, WriteOutcome};
 use serde::{Deserialize, Serialize};
 
@@ -50,10 +50,13 @@ pub(super) fn run(
                     [0.0, 0.0, 0.0, 1.0],
                 );
                 for entity in reached {
-                    // Scenery of this cluster does not move; everything else is pushed (a
-                    // proxy's push goes to its owner, which knows whether its body moves).
+                    // Scenery and this cluster's Fixed bodies do not move; everything else is
+                    // pushed (a proxy's push goes to its owner, which knows whether its body
+                    // moves).
                     let scenery = context.entity(entity).is_some_and(|info| {
-                        info.cluster_id == context.cluster_id() && info.role == BodyRole::Fixed
+                        info.cluster_id == ClusterId::SCENERY
+                            || (info.cluster_id == context.cluster_id()
+                                && info.role == BodyRole::Fixed)
                     });
                     let Ok(position) = physics.translation(entity) else {
                         continue;

@@ -21,7 +21,9 @@ mod stages;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::time::Duration;
 
-use seam_proxy::{Cluster, ClusterConfig, ClusterError, ProxyMode, Region, WorldCluster};
+use seam_proxy::{
+    AuthorityMode, Cluster, ClusterConfig, ClusterError, ProxyMode, Region, WorldCluster,
+};
 use seam_sim::BodyRole;
 use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
 
@@ -48,6 +50,8 @@ pub struct PodSettings {
     pub run_id: String,
     /// How neighbour entities are modelled.
     pub proxy_mode: ProxyMode,
+    /// Which hand-offs the cluster makes besides the scene's.
+    pub authority: AuthorityMode,
     /// A replication frame every this many ticks.
     pub replication_interval: u64,
     /// Ticks of silence after which a neighbour is taken for dead (0: never; see
@@ -59,12 +63,14 @@ pub struct PodSettings {
 }
 
 impl PodSettings {
-    /// Settings with Fixed proxies, replication every tick and a 60-tick neighbour timeout.
+    /// Settings with Fixed proxies, the `Spatial` authority policy, replication every tick and
+    /// a 60-tick neighbour timeout.
     pub fn new(transport: impl Into<String>, run_id: impl Into<String>) -> Self {
         Self {
             transport: transport.into(),
             run_id: run_id.into(),
             proxy_mode: ProxyMode::Fixed,
+            authority: AuthorityMode::spatial(),
             replication_interval: 1,
             neighbour_timeout_ticks: 60,
             rejoin: false,
@@ -113,8 +119,8 @@ pub struct Pod {
     /// Every projectile of the scene fired so far, by any cluster (ids are derived, so every
     /// pod knows them).
     all_projectiles: HashSet<EntityId>,
-    /// Contacts that started between a projectile and anything, in this world (reported ones
-    /// included), with the first tick each pair was seen.
+    /// Contacts that started between a projectile and anything but a projectile, in this world
+    /// (reported ones included), with the first tick each pair was seen.
     projectile_hits: BTreeMap<(EntityId, EntityId), u64>,
     /// Projectiles that were in this world at one of the looks every [`SEEN_EVERY`] ticks.
     projectiles_seen: HashSet<EntityId>,
@@ -167,12 +173,13 @@ pub fn wire_shape(shape: &SceneShape) -> Shape {
     }
 }
 
-/// The body role of a scene role.
-fn body_role(role: scene::Role) -> BodyRole {
+/// The body role of an owned scene role (`None` for scenery, which nobody owns).
+fn body_role(role: scene::Role) -> Option<BodyRole> {
     match role {
-        scene::Role::Dynamic => BodyRole::Dynamic,
-        scene::Role::Fixed => BodyRole::Fixed,
-        scene::Role::Kinematic => BodyRole::KinematicVelocityBased,
+        scene::Role::Dynamic => Some(BodyRole::Dynamic),
+        scene::Role::Fixed => Some(BodyRole::Fixed),
+        scene::Role::Kinematic => Some(BodyRole::KinematicVelocityBased),
+        scene::Role::Scenery => None,
     }
 }
 
@@ -236,6 +243,7 @@ impl Pod {
         config.region = region;
         config.spread = spread;
         config.proxy_mode = settings.proxy_mode;
+        config.authority = settings.authority;
         config.replication_interval = settings.replication_interval.max(1);
         config.dt = scene.dt;
         config.gravity = scene.gravity;
@@ -248,7 +256,7 @@ impl Pod {
         for entity in &scene.entities {
             let body = BodyShape {
                 shape: wire_shape(&entity.shape),
-                density: entity.mass / entity.shape.volume(),
+                density: entity.mass() / entity.shape.volume(),
                 ccd: entity.ccd,
             };
             let grid = entity.grid.unwrap_or(scene::Grid {
@@ -263,7 +271,10 @@ impl Pod {
                         let id = ids.entity(&entity.name, index);
                         index += 1;
                         copies.push(id);
-                        if !plays.contains(&entity.owner) || settings.rejoin {
+                        // Scenery is every cluster's, and a restarted pod loads it again; owned
+                        // entities are spawned by their owner at the start only.
+                        let owner = entity.owner.as_ref().filter(|o| plays.contains(*o));
+                        if !entity.is_scenery() && (owner.is_none() || settings.rejoin) {
                             continue;
                         }
                         let offset = [i, j, k].map(|n| n as f32);
@@ -278,8 +289,13 @@ impl Pod {
                             angvel: entity.angvel,
                             body,
                         };
-                        cluster.spawn_owned(&state, body_role(entity.role))?;
-                        owned_at_start += 1;
+                        match body_role(entity.role) {
+                            Some(role) => {
+                                cluster.spawn_owned(&state, role)?;
+                                owned_at_start += 1;
+                            }
+                            None => cluster.spawn_scenery(&state)?,
+                        }
                     }
                 }
             }
@@ -343,6 +359,20 @@ impl Pod {
         &self.cluster
     }
 
+    /// The scene name of entity `id` (`name#i` for a grid copy), or its id (a projectile).
+    pub fn entity_name(&self, id: EntityId) -> String {
+        for (name, copies) in &self.entities {
+            if let Some(i) = copies.iter().position(|&c| c == id) {
+                return if copies.len() > 1 {
+                    format!("{name}#{i}")
+                } else {
+                    name.clone()
+                };
+            }
+        }
+        id.to_string()
+    }
+
     /// The id of scene entity `name` (its first copy, for a grid entry).
     pub fn entity_id(&self, name: &str) -> Option<EntityId> {
         self.entities.get(name).and_then(|ids| ids.first().copied())
@@ -358,8 +388,8 @@ impl Pod {
         self.owned_at_start
     }
 
-    /// Contacts that started between a projectile (of any cluster) and anything in this world,
-    /// reported ones included: pair (smaller id first) → first tick.
+    /// Contacts that started between a projectile (of any cluster) and anything in this world
+    /// that is not a projectile, reported ones included: pair (smaller id first) → first tick.
     pub fn projectile_hits(&self) -> &BTreeMap<(EntityId, EntityId), u64> {
         &self.projectile_hits
     }
@@ -398,16 +428,18 @@ impl Pod {
         &self.stages
     }
 
-    /// Entities owned here and proxies of other clusters' entities, now.
+    /// Entities owned here and proxies of other clusters' entities, now (scenery is neither).
     pub fn population(&self) -> (usize, usize) {
         let me = self.cluster.id();
-        let owned = self
-            .cluster
-            .sim()
-            .entities()
-            .filter(|(_, info)| info.cluster_id == me)
-            .count();
-        (owned, self.cluster.sim().len() - owned)
+        let (mut owned, mut proxies) = (0, 0);
+        for (_, info) in self.cluster.sim().entities() {
+            if info.cluster_id == me {
+                owned += 1;
+            } else if info.cluster_id != ClusterId::SCENERY {
+                proxies += 1;
+            }
+        }
+        (owned, proxies)
     }
 
     /// Waits up to `timeout` for frames between ticks (see [`Cluster::wait`]).
@@ -436,9 +468,58 @@ impl Pod {
         Ok(())
     }
 
+    /// Watches the reach of this pod's explosions and volleys a little before they go off, so
+    /// that the neighbour entities they reach are proxies here by then (see
+    /// [`Cluster::watch`]).
+    fn watch_ahead(&mut self, tick: u64) {
+        let lead = self.cluster.config().replication_interval.max(1) + 1;
+        let due = tick + lead;
+        let reaches: Vec<Region> = self
+            .events
+            .iter()
+            .filter(|(_, event)| event.shot_at(due).is_some())
+            .filter_map(|(_, event)| match event {
+                Event::Explosion {
+                    by, center, radius, ..
+                } if self.plays.contains(by) => Some(Region {
+                    min: center.map(|c| c - radius),
+                    max: center.map(|c| c + radius),
+                }),
+                Event::RaycastVolley {
+                    by,
+                    origin,
+                    directions,
+                    max_distance,
+                    ..
+                } if self.plays.contains(by) => {
+                    let mut reach = Region {
+                        min: *origin,
+                        max: *origin,
+                    };
+                    for direction in directions {
+                        let length = direction.iter().map(|c| c * c).sum::<f32>().sqrt();
+                        for k in 0..3 {
+                            let end = origin[k] + direction[k] / length * max_distance;
+                            reach.min[k] = reach.min[k].min(end);
+                            reach.max[k] = reach.max[k].max(end);
+                        }
+                    }
+                    Some(reach)
+                }
+                _ => None,
+            })
+            .collect();
+        for reach in reaches {
+            self.cluster.watch(reach, due);
+        }
+    }
+
     /// Fires this tick's spawns and hand-offs; returns the events that run as user code.
     fn before_tick(&mut self) -> Vec<Event> {
         let tick = self.cluster.sim().tick();
+        if !self.reference {
+            self.watch_ahead(tick);
+        }
         let firing: Vec<(usize, usize, u64)> = self
             .events
             .iter()
@@ -536,7 +617,7 @@ impl Pod {
         for contact in self.cluster.sim().contacts() {
             let (a, b) = (contact.a, contact.b);
             if contact.started
-                && (self.all_projectiles.contains(&a) || self.all_projectiles.contains(&b))
+                && (self.all_projectiles.contains(&a) != self.all_projectiles.contains(&b))
             {
                 self.projectile_hits
                     .entry((a.min(b), a.max(b)))

@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 
 use seam_proxy::monotonic_ns;
 
-use crate::node::{NodeLine, NodeProgress, NodeReport, ProxyModeArg};
+use crate::node::{AuthorityArgs, NodeLine, NodeProgress, NodeReport, ProxyModeArg};
 pub use report::{PodSummary, RunReport, markdown, table};
 
 /// What `seam run` runs.
@@ -39,6 +39,8 @@ pub struct RunPlan {
     pub ticks: Option<u64>,
     /// How neighbour entities are modelled.
     pub proxy_mode: ProxyModeArg,
+    /// Which hand-offs the pods make.
+    pub authority: AuthorityArgs,
     /// A replication frame every this many ticks.
     pub replication_interval: u64,
     /// Copies of every grid entity stacked along y.
@@ -110,6 +112,7 @@ pub fn spawn_pod(
         .args(["--ticks", &launch.ticks.to_string()])
         .args(["--run-id", &plan.run_id])
         .args(["--proxy-mode", proxy_mode_name(plan.proxy_mode)])
+        .args(plan.authority.to_args())
         .args([
             "--replication-interval",
             &plan.replication_interval.to_string(),

@@ -31,12 +31,14 @@ impl Ownership {
     }
 }
 
-/// The id of every entity `scene` spawns, as pods of run `run_id` name them.
+/// The id of every owned entity `scene` spawns (scenery is nobody's), as pods of run `run_id`
+/// name them.
 pub fn scene_entity_ids(scene: &Scene, run_id: &str) -> Vec<EntityId> {
     let ids = SceneIds::new(run_id, &scene.name);
     scene
         .entities
         .iter()
+        .filter(|entity| !entity.is_scenery())
         .flat_map(|entity| {
             let count = entity
                 .grid

@@ -131,10 +131,13 @@ pub enum Role {
     /// Simulated.
     #[default]
     Dynamic,
-    /// Scenery that does not move.
+    /// Owned, replicated, and does not move.
     Fixed,
-    /// Moved by its velocity only.
+    /// Owned, replicated, moved by its velocity only.
     Kinematic,
+    /// Static level geometry every cluster loads itself: owned by none, never replicated
+    /// (no `owner`; `mass` is not needed).
+    Scenery,
 }
 
 /// Repeats an entity over a lattice: `count` along x, y, z, `spacing` apart.
@@ -153,12 +156,14 @@ pub struct Grid {
 pub struct Entity {
     /// Its name in this scene (copies of a grid get `name#i`).
     pub name: String,
-    /// The cluster that owns it at the start.
-    pub owner: String,
+    /// The cluster that owns it at the start (none for scenery).
+    #[serde(default)]
+    pub owner: Option<String>,
     /// Collision shape.
     pub shape: SceneShape,
-    /// Mass, kg.
-    pub mass: f32,
+    /// Mass, kg (not needed for scenery).
+    #[serde(default)]
+    pub mass: Option<f32>,
     /// Position of the body origin (of the first copy of a grid), m.
     pub position: Vec3,
     /// Orientation `[x, y, z, w]`; identity if left out.
@@ -186,6 +191,16 @@ fn identity() -> [f32; 4] {
 }
 
 impl Entity {
+    /// Mass, kg (scenery, which has none, counts as 1 kg/m³: it never moves).
+    pub fn mass(&self) -> f32 {
+        self.mass.unwrap_or_else(|| self.shape.volume())
+    }
+
+    /// Whether it is scenery.
+    pub fn is_scenery(&self) -> bool {
+        self.role == Role::Scenery
+    }
+
     /// How many entities this entry makes.
     pub fn copies(&self) -> u64 {
         self.grid
@@ -405,7 +420,19 @@ impl Scene {
                 return bad("field `name`: defined twice".into());
             }
             entity_names.push(&entity.name);
-            known_cluster("owner", &entity.owner)?;
+            match (&entity.owner, entity.is_scenery()) {
+                (Some(owner), false) => known_cluster("owner", owner)?,
+                (None, false) => {
+                    return bad("field `owner` is required (scenery alone has none)".into());
+                }
+                (Some(_), true) => {
+                    return bad(
+                        "field `owner`: scenery is owned by no cluster (every cluster loads it)"
+                            .into(),
+                    );
+                }
+                (None, true) => {}
+            }
             if !entity
                 .shape
                 .sizes()
@@ -414,8 +441,14 @@ impl Scene {
             {
                 return bad("field `shape`: sizes must be positive".into());
             }
-            if !positive(entity.mass) {
-                return bad("field `mass` must be positive".into());
+            match entity.mass {
+                Some(mass) if !positive(mass) => {
+                    return bad("field `mass` must be positive".into());
+                }
+                None if !entity.is_scenery() => {
+                    return bad("field `mass` is required (scenery alone has none)".into());
+                }
+                _ => {}
             }
             let vectors = [entity.position, entity.velocity, entity.angvel];
             if !vectors.iter().all(|v| finite(v)) || !finite(&entity.rotation) {
@@ -508,6 +541,16 @@ impl Scene {
                         return Err((
                             find(text, "entity", entity),
                             format!("field `entity`: no entity named {entity:?}"),
+                        ));
+                    }
+                    if self
+                        .entities
+                        .iter()
+                        .any(|e| &e.name == entity && e.is_scenery())
+                    {
+                        return Err((
+                            find(text, "entity", entity),
+                            format!("field `entity`: {entity:?} is scenery, which nobody owns"),
                         ));
                     }
                 }

@@ -80,6 +80,7 @@ impl SweepGrid {
                                 projectile_speed: Some(speed),
                                 projectile_ccd: Some(ccd),
                                 ticks,
+                                ..TrialSettings::default()
                             });
                         }
                     }

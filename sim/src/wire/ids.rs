@@ -63,6 +63,13 @@ uuid_id!(
     ClusterId
 );
 
+impl ClusterId {
+    /// The owner of scenery: static level geometry that every cluster loads itself, that no
+    /// cluster simulates for another and that is never replicated (the nil UUID; no cluster
+    /// has it).
+    pub const SCENERY: ClusterId = ClusterId(Uuid::nil());
+}
+
 /// A fixed, fast hasher for maps keyed by ids. Ids are UUIDs, random or assigned, so folding the
 /// two halves and multiplying spreads them well; being fixed (unseeded), it keeps map iteration
 /// order the same from run to run, which determinism needs.

@@ -13,7 +13,7 @@ use serde::de::{DeserializeOwned, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
 
 /// The format version every frame starts with.
-pub const WIRE_VERSION: u8 = 1;
+pub const WIRE_VERSION: u8 = 2;
 
 /// A collision shape, as small as a proxy needs.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -202,6 +202,9 @@ pub struct RoutedOp {
     pub issued_ns: u64,
     /// The issuing cluster's tick when it made the write.
     pub issued_tick: u64,
+    /// Sent on by a cluster that no longer owned the target to the owner it knew: an op is
+    /// forwarded at most once, so one forwarded again is dropped instead.
+    pub forwarded: bool,
 }
 
 /// A contact that started or stopped between two entities.
