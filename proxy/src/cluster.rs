@@ -17,6 +17,7 @@ use crate::authority::{AuthorityMode, AuthorityPolicy, AuthorityView, NeighbourV
 use crate::channels::{self, Channel};
 use crate::clock::{OpTiming, monotonic_ns};
 use crate::config::{ClusterConfig, CustomProxy, ProxyMode, Region};
+use crate::dead_reckoning;
 use crate::error::ClusterError;
 use crate::inbox::{Inbox, TickFrames};
 use crate::interest::{Interest, extent};
@@ -847,21 +848,10 @@ impl Cluster {
             ProxyMode::Fixed => self.sim.apply_state(state).map_err(|_| ()),
             ProxyMode::KinematicVelocityBased => {
                 // Aim where the entity will be at the next update, so the proxy moves with it in
-                // between (dead reckoning): the velocity that covers the way there in the
-                // ticks until then, expressed as the point one tick along it.
-                let current = self.sim.state(state.id).ok_or(())?.position;
+                // between (see `crate::dead_reckoning`).
+                let now = self.sim.state(state.id).ok_or(())?;
                 let ticks = self.config.replication_interval.max(1) as f32;
-                let ahead = self.config.dt * ticks;
-                let mut aim = *state;
-                for ((aim, now), (at, v)) in aim
-                    .position
-                    .iter_mut()
-                    .zip(current)
-                    .zip(state.position.iter().zip(state.linvel))
-                {
-                    let goal = at + v * ahead;
-                    *aim = now + (goal - now) / ticks;
-                }
+                let aim = dead_reckoning::aim(&now, state, self.config.dt * ticks, ticks);
                 self.sim.apply_state(&aim).map_err(|_| ())
             }
             ProxyMode::Custom => match self.custom_proxy.as_mut() {

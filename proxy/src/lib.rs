@@ -162,6 +162,7 @@
 //!
 //! - `cluster` — [`Cluster`]: the tick, reconcile, routing, contacts, publish.
 //! - `config` — [`ClusterConfig`], [`Region`], [`WorldCluster`], [`ProxyMode`], [`CustomProxy`].
+//! - `dead_reckoning` — where a kinematic proxy aims between frames.
 //! - `inbox` — frames by sender and step count, for lock-step.
 //! - `interest` — which neighbour entities are modelled: [`extent`] against the region and
 //!   the room around this cluster's own bodies.
@@ -181,6 +182,7 @@ mod channels;
 mod clock;
 mod cluster;
 mod config;
+mod dead_reckoning;
 mod error;
 mod inbox;
 mod interest;

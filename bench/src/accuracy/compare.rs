@@ -44,11 +44,17 @@ pub struct Accuracy {
     pub momentum_error_max: f64,
     /// Mean of that error over the mean Σ m·|v| of the reference (unitless).
     pub momentum_error_rel: f64,
-    /// Authority flips seen.
+    /// Authority flips seen, projectiles included.
     pub handoffs: u64,
-    /// Largest position discontinuity at a flip, beyond the reference's own motion, m.
+    /// Of those, flips of a body that had already drifted more than
+    /// [`TRACKED_M`] from its single-world copy before the flip: its motion over the flip
+    /// tick differs from the copy's for reasons the hand-off has no part in (it meets other
+    /// bodies, elsewhere), so the flip is not judged for a jump.
+    pub handoffs_untracked: u64,
+    /// Largest position discontinuity at a judged flip: how far the new owner's motion over
+    /// the flip tick departs from the single world's, m.
     pub handoff_jump_position_m: f64,
-    /// Largest velocity discontinuity at a flip, beyond the reference's, m/s.
+    /// Largest velocity discontinuity at a judged flip, beyond the single world's, m/s.
     pub handoff_jump_velocity_mps: f64,
     /// Body-ticks where an entity was dynamic in more than one cluster.
     pub duplicate_owner_ticks: u64,
@@ -63,6 +69,10 @@ pub struct Accuracy {
     /// did not model, or flying off because a proxy was missing, counts here.
     pub escaped_bodies: u64,
 }
+
+/// A body within this distance of its single-world copy before a flip is judged for a jump
+/// at the flip, m.
+pub const TRACKED_M: f64 = 0.01;
 
 /// Accumulates the comparison over a run.
 pub struct Comparison {
@@ -217,6 +227,37 @@ impl Comparison {
                 let Some(truth) = truth.get(&state.id) else {
                     continue;
                 };
+                if let Some((was, before, truth_before)) = self.last.get(&state.id)
+                    && *was != owner
+                {
+                    // An authority flip: how far the new owner's motion over the tick departs
+                    // from the reference's.
+                    self.acc.handoffs += 1;
+                    if distance(before.position, truth_before.position) > TRACKED_M {
+                        self.acc.handoffs_untracked += 1;
+                    }
+                }
+                if let Some((was, before, truth_before)) = self.last.get(&state.id)
+                    && *was != owner
+                    && distance(before.position, truth_before.position) <= TRACKED_M
+                {
+                    let moved = sub(state.position, before.position);
+                    let moved_truth = sub(truth.position, truth_before.position);
+                    let sped = sub(state.linvel, before.linvel);
+                    let sped_truth = sub(truth.linvel, truth_before.linvel);
+                    self.acc.handoff_jump_position_m = self
+                        .acc
+                        .handoff_jump_position_m
+                        .max(distance(moved, moved_truth));
+                    self.acc.handoff_jump_velocity_mps = self
+                        .acc
+                        .handoff_jump_velocity_mps
+                        .max(distance(sped, sped_truth));
+                }
+                self.last.insert(state.id, (owner, state, *truth));
+                // Projectiles count for hand-offs, not for position error: once one hits in one
+                // run and not in the other, it flies hundreds of metres apart, and the hit
+                // metrics already count that.
                 if projectiles.contains(&state.id) {
                     continue;
                 }
@@ -233,26 +274,6 @@ impl Comparison {
                     self.worst = Some((state.id, tick));
                 }
                 self.acc.rotation_max_deg = self.acc.rotation_max_deg.max(turn);
-                if let Some((was, before, truth_before)) = self.last.get(&state.id)
-                    && *was != owner
-                {
-                    // An authority flip: how far the new owner's motion over the tick departs
-                    // from the reference's.
-                    self.acc.handoffs += 1;
-                    let moved = sub(state.position, before.position);
-                    let moved_truth = sub(truth.position, truth_before.position);
-                    let sped = sub(state.linvel, before.linvel);
-                    let sped_truth = sub(truth.linvel, truth_before.linvel);
-                    self.acc.handoff_jump_position_m = self
-                        .acc
-                        .handoff_jump_position_m
-                        .max(distance(moved, moved_truth));
-                    self.acc.handoff_jump_velocity_mps = self
-                        .acc
-                        .handoff_jump_velocity_mps
-                        .max(distance(sped, sped_truth));
-                }
-                self.last.insert(state.id, (owner, state, *truth));
             }
         }
         let mut speed_sum = 0.0;

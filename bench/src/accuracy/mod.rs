@@ -22,7 +22,7 @@ use crate::latency::LatencyRecorder;
 use crate::node::AuthorityArgs;
 use crate::pod::{OpStages, Part, Pod, PodSettings};
 use crate::scene::{Event, Scene};
-pub use compare::{Accuracy, Comparison};
+pub use compare::{Accuracy, Comparison, TRACKED_M};
 pub use free::{FreeRunning, run_free_trial};
 
 /// How long a lock-step tick may wait for a neighbour's frame before the trial fails.
@@ -278,7 +278,8 @@ pub fn table(r: &TrialResult) -> String {
          \x20 projectile hits      {} in the single world, {} split, {} matched: recall {}, \
          precision {}, mean tick offset {:.2}\n\
          \x20 momentum error       max {:.4} kg·m/s, mean {:.5} of Σm|v|\n\
-         \x20 hand-offs            {}: largest jump {:.5} m, {:.5} m/s\n\
+         \x20 hand-offs            {} ({} of bodies already off track, not judged): largest jump \
+         {:.5} m, {:.5} m/s\n\
          \x20 ownership            {} body-ticks with two owners, {} lost, {} in transit \
          (hand-off read next tick); {} bodies escaped (fell through or flew off where the \
          single world's did not)\n\n\
@@ -324,6 +325,7 @@ pub fn table(r: &TrialResult) -> String {
         a.momentum_error_max,
         a.momentum_error_rel,
         a.handoffs,
+        a.handoffs_untracked,
         a.handoff_jump_position_m,
         a.handoff_jump_velocity_mps,
         a.duplicate_owner_ticks,
