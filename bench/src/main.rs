@@ -73,13 +73,13 @@ enum Command {
     /// position and orientation error, projectile hit recall and precision, momentum error,
     /// hand-off jumps, and the split run's tick time, bytes per tick, proxies and op delay.
     Compare {
-        /// The scene file (TOML).
-        scene: std::path::PathBuf,
+        /// The scene files (TOML), each compared in turn.
+        #[arg(required = true)]
+        scenes: Vec<std::path::PathBuf>,
         #[command(flatten)]
         knobs: Knobs,
-        /// Print the result as JSON.
-        #[arg(long)]
-        json: bool,
+        #[command(flatten)]
+        output: Output,
     },
     /// Sweep settings against the single-world reference: `sweep.csv` and charts.
     ///
@@ -92,7 +92,8 @@ enum Command {
     /// OUT/sweep.csv (one row per trial, every metric) and, as SVG and PNG,
     /// OUT/accuracy_vs_cost (Pareto front marked) and OUT/hit_recall_vs_speed_{fixed,kinematic}.
     Sweep {
-        /// Scene files (default: bench/scenes/gallery.toml and bench/scenes/crossfire.toml).
+        /// Scene files (default: gallery, corridor, stacks, grid and crossfire of
+        /// bench/scenes/).
         #[arg(long = "scene")]
         scenes: Vec<std::path::PathBuf>,
         /// A reduced grid: fixed/kinematic × interval 1, 4 × 50, 500, 2 000 m/s × CCD off/on ×
@@ -305,6 +306,32 @@ impl Knobs {
     }
 }
 
+/// `seam compare`: one trial per scene; with `--markdown`, one table with a row each.
+fn compare(
+    scenes: &[std::path::PathBuf],
+    settings: &TrialSettings,
+    output: Output,
+) -> Result<(), String> {
+    let mut results = Vec::new();
+    for path in scenes {
+        let scene = seam_bench::scene::load(path).map_err(|e| e.to_string())?;
+        let result = accuracy::run_trial(&scene, settings, &run::fresh_run_id())?;
+        if output.json {
+            println!(
+                "{}",
+                serde_json::to_string_pretty(&result).expect("results serialise")
+            );
+        } else if !output.markdown {
+            print!("{}", accuracy::table(&result));
+        }
+        results.push(result);
+    }
+    if output.markdown {
+        print!("{}", accuracy::markdown(&results));
+    }
+    Ok(())
+}
+
 /// `seam sweep`.
 fn sweep(
     scenes: Vec<std::path::PathBuf>,
@@ -315,10 +342,10 @@ fn sweep(
     out: &std::path::Path,
 ) -> Result<(), String> {
     let paths = if scenes.is_empty() {
-        vec![
-            "bench/scenes/gallery.toml".into(),
-            "bench/scenes/crossfire.toml".into(),
-        ]
+        ["gallery", "corridor", "stacks", "grid", "crossfire"]
+            .iter()
+            .map(|name| format!("bench/scenes/{name}.toml").into())
+            .collect()
     } else {
         scenes
     };
@@ -535,21 +562,11 @@ fn main() -> ExitCode {
                 ))
             }
         }),
-        Command::Compare { scene, knobs, json } => seam_bench::scene::load(&scene)
-            .map_err(|e| e.to_string())
-            .and_then(|loaded| {
-                accuracy::run_trial(&loaded, &knobs.settings(), &run::fresh_run_id())
-            })
-            .map(|result| {
-                if json {
-                    println!(
-                        "{}",
-                        serde_json::to_string_pretty(&result).expect("results serialise")
-                    );
-                } else {
-                    print!("{}", accuracy::table(&result));
-                }
-            }),
+        Command::Compare {
+            scenes,
+            knobs,
+            output,
+        } => compare(&scenes, &knobs.settings(), output),
         Command::Sweep {
             scenes,
             quick,

@@ -347,3 +347,57 @@ pub fn table(r: &TrialResult) -> String {
         c.op_transport_p50_us,
     )
 }
+
+/// Trial results as one Markdown table, a row each (`seam compare --markdown`), as README's
+/// "Choosing settings" quotes them.
+pub fn markdown(results: &[TrialResult]) -> String {
+    use crate::markdown::{Align::*, Table};
+    let mut table = Table::new(&[
+        ("scene", Left),
+        ("proxies", Left),
+        ("authority", Left),
+        ("every", Right),
+        ("spread", Left),
+        ("position RMS m", Right),
+        ("max m", Right),
+        ("escaped", Right),
+        ("hit recall", Right),
+        ("precision", Right),
+        ("hand-offs (judged)", Right),
+        ("largest jump m, m/s", Right),
+        ("CPU/tick summed ms", Right),
+        ("one world ms", Right),
+        ("kB/tick", Right),
+    ]);
+    for r in results {
+        let (s, a, c) = (&r.settings, &r.accuracy, &r.cost);
+        table.row(vec![
+            format!("`{}`", r.scene),
+            mode_name(s.proxy_mode).to_owned(),
+            s.authority.label(),
+            s.replication_interval.to_string(),
+            if s.interest {
+                s.spread.map_or("scene's".to_owned(), |v| format!("{v} m"))
+            } else {
+                "everything".to_owned()
+            },
+            format!("{:.4}", a.position_rms_m),
+            format!("{:.3}", a.position_max_m),
+            a.escaped_bodies.to_string(),
+            ratio(a.hit_recall),
+            ratio(a.hit_precision),
+            format!("{} ({})", a.handoffs, a.handoffs - a.handoffs_untracked),
+            format!(
+                "{:.4}, {:.3}",
+                a.handoff_jump_position_m, a.handoff_jump_velocity_mps
+            ),
+            format!("{:.2}", c.tick_sum_p50_us / 1e3),
+            format!("{:.2}", c.reference_tick_p50_us / 1e3),
+            format!(
+                "{:.1}",
+                (c.replication_bytes_per_tick + c.events_bytes_per_tick) / 1e3
+            ),
+        ]);
+    }
+    table.render()
+}

@@ -61,8 +61,13 @@ pub struct Totals {
     pub contacts_received: u64,
     /// Hand-offs sent.
     pub handoffs_out: u64,
+    /// Of those, the ones the authority policy made (entities following into the region they
+    /// are in).
+    pub handoffs_by_policy: u64,
     /// Hand-offs taken.
     pub handoffs_in: u64,
+    /// Routed writes a pod that no longer owned the target sent on to the owner.
+    pub ops_forwarded: u64,
     /// Messages lost to full receive buffers.
     pub overflow_drops: u64,
     /// Frames refused: foreign or corrupted messages, frames that did not decode, of another
@@ -126,6 +131,8 @@ impl RunReport {
             totals.contacts_sent += s.contacts_sent;
             totals.contacts_received += s.contacts_received;
             totals.handoffs_out += s.handoffs_out;
+            totals.handoffs_by_policy += s.handoffs_by_policy;
+            totals.ops_forwarded += s.ops_forwarded;
             totals.handoffs_in += s.handoffs_in;
             totals.overflow_drops += r.transport_stats.overflow_drops;
             totals.malformed += r.transport_stats.malformed_drops + refused(s);
@@ -273,16 +280,19 @@ pub fn table(report: &RunReport) -> String {
     let t = &report.totals;
     out += &format!(
         "\nentities: {} expected (spawned + fired), {} owned at the end; ops routed {}, applied {}, \
-         dropped {}; contacts {} sent, {} received; hand-offs {} out, {} in; overruns {}; \
-         neighbours taken for dead {}\n",
+         forwarded {}, dropped {}; contacts {} sent, {} received; hand-offs {} out ({} by the \
+         authority policy, {:.1} a second), {} in; overruns {}; neighbours taken for dead {}\n",
         t.entities_expected,
         t.entities_owned,
         t.ops_routed,
         t.ops_applied,
+        t.ops_forwarded,
         t.ops_dropped,
         t.contacts_sent,
         t.contacts_received,
         t.handoffs_out,
+        t.handoffs_by_policy,
+        t.handoffs_out as f64 / report.wall_s.max(1e-9),
         t.handoffs_in,
         t.overruns,
         t.neighbours_lost

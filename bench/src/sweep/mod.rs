@@ -64,21 +64,36 @@ impl SweepGrid {
         }
     }
 
-    /// Every combination, in a fixed order.
-    pub fn settings(&self, ticks: Option<u64>) -> Vec<TrialSettings> {
+    /// Every combination for `scene`, in a fixed order; the projectile axes only if the scene
+    /// fires projectiles (otherwise their trials would all be the same).
+    pub fn settings(&self, scene: &Scene, ticks: Option<u64>) -> Vec<TrialSettings> {
+        let shoots = scene
+            .events
+            .iter()
+            .any(|e| matches!(e, crate::scene::Event::Projectile { .. }));
+        let speeds: Vec<Option<f32>> = if shoots {
+            self.speeds.iter().copied().map(Some).collect()
+        } else {
+            vec![None]
+        };
+        let ccd: Vec<Option<bool>> = if shoots {
+            self.ccd.iter().copied().map(Some).collect()
+        } else {
+            vec![None]
+        };
         let mut all = Vec::new();
         for &proxy_mode in &self.proxy_modes {
             for &replication_interval in &self.intervals {
                 for &spread in &self.spreads {
-                    for &ccd in &self.ccd {
-                        for &speed in &self.speeds {
+                    for &projectile_ccd in &ccd {
+                        for &projectile_speed in &speeds {
                             all.push(TrialSettings {
                                 proxy_mode,
                                 replication_interval,
                                 spread,
                                 interest: spread.is_some(),
-                                projectile_speed: Some(speed),
-                                projectile_ccd: Some(ccd),
+                                projectile_speed,
+                                projectile_ccd,
                                 ticks,
                                 ..TrialSettings::default()
                             });
@@ -148,9 +163,11 @@ pub fn run(
     free: &FreeRunning,
     mut progress: impl FnMut(usize, usize, &str),
 ) -> Result<Vec<TrialResult>, String> {
-    let settings = grid.settings(ticks);
     let free_settings = grid.free_settings(ticks);
-    let total = (settings.len() + free_settings.len()) * scenes.len();
+    let total = scenes
+        .iter()
+        .map(|(_, scene)| grid.settings(scene, ticks).len() + free_settings.len())
+        .sum();
     let mut results = Vec::with_capacity(total);
     let mut report = |results: &mut Vec<TrialResult>, result: TrialResult| {
         let line = format!(
@@ -170,7 +187,7 @@ pub fn run(
         progress(results.len(), total, &line);
     };
     for (path, scene) in scenes {
-        for trial in &settings {
+        for trial in &grid.settings(scene, ticks) {
             let run_id = format!("sweep{}x{}", std::process::id(), results.len());
             let result = run_trial(scene, trial, &run_id)
                 .map_err(|e| format!("{}: {}: {e}", scene.name, describe(trial)))?;
