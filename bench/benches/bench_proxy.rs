@@ -47,6 +47,7 @@ fn scene(proxies: usize) -> Vec<Cluster> {
             id: EntityId::from_u128(i as u128 + 1),
             cluster_id: a.id(),
             tick: 0,
+            epoch: 0,
             position: position(i),
             rotation: [0.0, 0.0, 0.0, 1.0],
             // Slow drift along x, so proxies move every tick and nothing falls asleep.

@@ -62,6 +62,7 @@ fn state(i: usize, owner: ClusterId) -> EntityState {
         id: EntityId::from_u128(i as u128 + 1),
         cluster_id: owner,
         tick: 1,
+        epoch: 0,
         position: [(i % 100) as f32 * 3.0, 0.0, (i / 100) as f32 * 3.0],
         rotation: [0.0, 0.0, 0.0, 1.0],
         linvel: [0.5, 0.0, 0.0],

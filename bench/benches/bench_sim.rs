@@ -57,6 +57,7 @@ fn state_in(i: usize, order: Order) -> EntityState {
         id: EntityId::from_u128(i as u128 + 1),
         cluster_id: HERE,
         tick: 0,
+        epoch: 0,
         position: grid(i),
         rotation: [0.0, 0.0, 0.0, 1.0],
         linvel: [0.0; 3],

@@ -202,6 +202,7 @@ mod tests {
             id: EntityId::from_u128(x.to_bits() as u128 + 1),
             cluster_id: ClusterId::from_u128(2),
             tick: 0,
+            epoch: 0,
             position: [x, 0.0, 0.0],
             rotation: [0.0, 0.0, 0.0, 1.0],
             linvel: [0.0; 3],

@@ -73,6 +73,10 @@ struct Peer {
     heard_ns: u64,
 }
 
+/// Ticks a hand-off this cluster made is remembered (see `Cluster::released`): long after any
+/// repeat of an older one can still be in flight.
+const RELEASED_FOR: u64 = 600;
+
 /// Room for a physics-events frame when advertising (about 80 ops; larger frames grow it).
 const EVENTS_ROOM: usize = 4096;
 
@@ -93,9 +97,15 @@ pub struct Cluster {
     outgoing_contacts: IdMap<ClusterId, Vec<ContactReport>>,
     /// Entities to hand over at the next replication frame, and to whom.
     transfers: IdMap<EntityId, ClusterId>,
-    /// Entities handed over, with the tick of the frame that did it: until the new owner's
-    /// frames are newer than that, their silence about the entity is not a departure.
-    handed: IdMap<EntityId, u64>,
+    /// Hand-offs not yet answered: the state each carried (new owner, final pose, next epoch).
+    /// Every replication frame repeats them until a frame of the new owner mentions the entity,
+    /// so a hand-off survives a lost frame (a neighbour that stalled past its buffer misses
+    /// some); until then the new owner's silence about the entity is not a departure.
+    handed: IdMap<EntityId, EntityState>,
+    /// Entities this cluster handed over, with the epoch they left at and the tick: a repeat of
+    /// an older hand-off to this cluster arriving after that is not taken (kept for a while,
+    /// see [`RELEASED_FOR`]).
+    released: IdMap<EntityId, (u32, u64)>,
     custom_proxy: Option<Box<dyn CustomProxy>>,
     replication_channel: String,
     stats: ClusterStats,
@@ -168,6 +178,7 @@ impl Cluster {
             outgoing_contacts: IdMap::default(),
             transfers: IdMap::default(),
             handed: IdMap::default(),
+            released: IdMap::default(),
             custom_proxy: None,
             stats: ClusterStats::default(),
             liveness,
@@ -422,18 +433,29 @@ impl Cluster {
             .map(|(id, _)| id)
             .collect();
         for id in left {
-            let never_taken =
-                self.handed.swap_remove(&id).is_some() && !last.iter().any(|s| s.id == id);
-            if never_taken
-                && self.sim.set_role(id, BodyRole::Dynamic).is_ok()
-                && self.sim.set_authority(id, me).is_ok()
-            {
+            let never_taken = self
+                .handed
+                .swap_remove(&id)
+                .filter(|_| !last.iter().any(|s| s.id == id));
+            // Taken back as it was handed over (a Fixed proxy has lost its velocity since).
+            let reclaimed = never_taken.is_some_and(|handed| {
+                let back = EntityState {
+                    cluster_id: me,
+                    epoch: handed.epoch + 1,
+                    ..handed
+                };
+                self.sim.set_role(id, BodyRole::Dynamic).is_ok()
+                    && self.sim.apply_state(&back).is_ok()
+            });
+            if reclaimed {
                 self.adopted.insert(id, dead);
                 self.stats.handoffs_reclaimed += 1;
             } else if self.sim.despawn(id).is_ok() {
                 self.stats.proxies_despawned += 1;
             }
         }
+        // Hand-offs to it that it did take are its entities' business now (adopted above).
+        self.handed.retain(|_, handed| handed.cluster_id != dead);
     }
 
     /// Notes a frame from `neighbour` tagged `tick` (a replication frame or not).
@@ -753,6 +775,10 @@ impl Cluster {
     fn reconcile(&mut self, frame: &ReplicationFrame) {
         let (me, from) = (self.config.cluster_id, frame.from);
         let mut listed: IdMap<EntityId, ()> = IdMap::default();
+        // A hand-off this cluster made to `from` is answered once `from` mentions the entity.
+        self.handed.retain(|id, handed| {
+            handed.cluster_id != from || !frame.states.iter().any(|s| s.id == *id)
+        });
         for state in &frame.states {
             let limit = self.config.max_magnitude;
             let absurd = ![state.position, state.linvel, state.angvel]
@@ -762,18 +788,43 @@ impl Cluster {
                 self.stats.states_rejected += 1;
                 continue;
             }
-            let known_owner = self.sim.info(state.id).map(|i| i.cluster_id);
-            let outcome = match known_owner {
-                // Handed (back) to this cluster, which owns it already: nothing to do.
-                Some(owner) if owner == me && state.cluster_id == me => Ok(()),
+            let known = self.sim.info(state.id).map(|i| (i.cluster_id, i.epoch));
+            let outcome = match known {
+                // Handed (back) to this cluster, which owns it already — a repeat, or a return
+                // to a pod that was only stalled and kept simulating it: nothing to do but
+                // learn the epoch.
+                Some((owner, epoch)) if owner == me && state.cluster_id == me => {
+                    if state.epoch > epoch {
+                        let _ = self.sim.set_authority(state.id, me, state.epoch);
+                    }
+                    Ok(())
+                }
+                // Older than what this world knows (a hand-off repeated after the entity moved
+                // on): not news.
+                Some((_, epoch)) if state.epoch < epoch => Ok(()),
+                // A repeat of the hand-off this world already applied.
+                Some((owner, epoch))
+                    if owner != from && state.epoch == epoch && state.cluster_id == owner =>
+                {
+                    Ok(())
+                }
                 // Only an entity's owner speaks for it: a frame claiming another cluster's
                 // (or this cluster's) entity is ignored.
-                Some(owner) if owner != from => Err(()),
+                Some((owner, _)) if owner != from => Err(()),
                 Some(_) => {
                     listed.insert(state.id, ());
                     self.update_known(state, from)
                 }
-                None if state.cluster_id == me => self.take_over_unseen(state),
+                None if state.cluster_id == me => {
+                    let released = self.released.get(&state.id);
+                    if released.is_some_and(|&(epoch, _)| state.epoch <= epoch) {
+                        // A repeat of a hand-off to this cluster from before it gave the entity
+                        // away again.
+                        Ok(())
+                    } else {
+                        self.take_over_unseen(state)
+                    }
+                }
                 None if state.cluster_id == from && self.visible(state) => {
                     listed.insert(state.id, ());
                     let role = self.proxy_role();
@@ -794,14 +845,9 @@ impl Cluster {
             .sim
             .entities()
             .filter(|(id, info)| info.cluster_id == from && !listed.contains_key(id))
-            .filter(|(id, _)| self.handed.get(id).is_none_or(|&at| frame.tick > at))
+            .filter(|(id, _)| !self.handed.contains_key(id))
             .map(|(id, _)| id)
             .collect();
-        let tick = frame.tick;
-        self.handed.retain(|id, &mut at| {
-            // Forget hand-offs the new owner has answered (listed, or had the chance to).
-            !(listed.contains_key(id) || tick > at)
-        });
         for id in departed {
             if self.sim.despawn(id).is_ok() {
                 self.stats.proxies_despawned += 1;
@@ -825,7 +871,7 @@ impl Cluster {
         if state.cluster_id != from {
             // Handed to a third cluster: writes are routed there from now on.
             self.sim
-                .set_authority(state.id, state.cluster_id)
+                .set_authority(state.id, state.cluster_id, state.epoch)
                 .map_err(|_| ())?;
         }
         if !self.visible(state) {
@@ -950,11 +996,14 @@ impl Cluster {
                 .collect();
             self.ask_policy(&owned);
             let mut states: Vec<EntityState> = owned.into_iter().map(|(s, _)| s).collect();
+            let mut handing = Vec::new();
             for state in &mut states {
                 if let Some(&to) = self.transfers.get(&state.id) {
                     // The new owner rides with the final pose and velocity, read before the body
-                    // becomes a proxy (a Fixed body loses its velocity).
+                    // becomes a proxy (a Fixed body loses its velocity), and the next epoch.
                     state.cluster_id = to;
+                    state.epoch += 1;
+                    handing.push(*state);
                 }
             }
             let (sweep_s, spread) = (self.sweep_s(), self.config.spread);
@@ -963,6 +1012,8 @@ impl Cluster {
                 sweep_s,
                 spread,
             );
+            // Earlier hand-offs not yet answered ride along again.
+            states.extend(self.handed.values().copied());
             let frame = ReplicationFrame {
                 from: me,
                 tick,
@@ -971,13 +1022,19 @@ impl Cluster {
             self.stats.replication_bytes +=
                 publish_frame(self.transport.as_mut(), &self.replication_channel, &frame)? as u64;
             let role = self.proxy_role();
-            for (entity, to) in std::mem::take(&mut self.transfers) {
+            self.transfers.clear();
+            for handed in handing {
+                let entity = handed.id;
                 self.adopted.swap_remove(&entity);
-                self.sim.set_authority(entity, to)?;
+                self.sim
+                    .set_authority(entity, handed.cluster_id, handed.epoch)?;
                 self.sim.set_role(entity, role)?;
-                self.handed.insert(entity, tick);
+                self.handed.insert(entity, handed);
+                self.released.insert(entity, (handed.epoch, tick));
                 self.stats.handoffs_out += 1;
             }
+            self.released
+                .retain(|_, &mut (_, at)| tick.saturating_sub(at) <= RELEASED_FOR);
         }
         for i in 0..self.config.neighbours.len() {
             let neighbour = self.config.neighbours[i];

@@ -82,6 +82,7 @@ mod tests {
             id: EntityId::from_u128(1),
             cluster_id: ClusterId::from_u128(2),
             tick: 0,
+            epoch: 0,
             position,
             rotation,
             linvel,

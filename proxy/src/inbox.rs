@@ -159,6 +159,7 @@ mod tests {
             id,
             cluster_id: owner,
             tick: 0,
+            epoch: 0,
             position: [x, 0.0, 0.0],
             rotation: [0.0, 0.0, 0.0, 1.0],
             linvel: [0.0; 3],

@@ -162,6 +162,7 @@ mod tests {
             id: EntityId::random(),
             cluster_id: ClusterId::random(),
             tick: 0,
+            epoch: 0,
             position,
             rotation,
             linvel,

@@ -19,6 +19,7 @@
 //!     id: EntityId::random(),
 //!     cluster_id: a,
 //!     tick: 0,
+//!     epoch: 0,
 //!     position: [10.0, 0.0, 0.0],
 //!     rotation: [0.0, 0.0, 0.0, 1.0],
 //!     linvel: [0.0; 3],
@@ -72,22 +73,35 @@
 //! overlaps this cluster's `region` grown by `spread`, or the room (extent and sweep, grown by
 //! `spread`) around one of this cluster's own bodies that has left that region: a floor whose
 //! centre is far away still reaches the seam, a fast shot is modelled before it arrives, and a
-//! body pushed over the seam meets what is there (see `interest`). It is spawned as a proxy
-//! the first time its owner lists it there,
-//! updated from each replication frame — `Fixed`: set to the pose; `KinematicVelocityBased`:
-//! given the velocity that carries it to where the entity will be at the next update (so it
-//! moves between updates); `Custom`: a [`CustomProxy`] — and despawned when it leaves the region
-//! or its owner stops listing it. Contacts between a body of this cluster and a proxy are sent
-//! to the proxy's owner, which sees them among its contact events on its next tick.
+//! body pushed over the seam meets what is there (see `interest`). Game code can widen it for
+//! a while with [`Cluster::watch`] — the reach of an explosion or a long raycast about to run:
+//! queries see only what the cluster models. A neighbour entity is spawned as a proxy the
+//! first time its owner lists it there, updated from each replication frame — `Fixed`: set to
+//! the pose; `KinematicVelocityBased`: given the velocities that carry it, position and
+//! orientation alike, to where the entity will be at the next update (so it moves between
+//! updates; see `dead_reckoning`); `Custom`: a [`CustomProxy`] — and despawned when it is of
+//! no more interest or its owner stops listing it. Every received state is checked first
+//! (finite, within `max_magnitude`, a unit rotation, a shape with a size) whether or not it
+//! will be modelled. Contacts between a body of this cluster and a proxy are sent to the
+//! proxy's owner, which sees them among its contact events on its next tick.
+//!
+//! **Scenery** — terrain, floors, walls — is loaded by every cluster itself
+//! ([`Cluster::spawn_scenery`]): a Fixed body owned by no cluster (`ClusterId::SCENERY`),
+//! never replicated, handed over or adopted; writes on it are refused and contacts with it
+//! reported to nobody.
 //!
 //! # Routing
 //!
 //! A write on a remote-owned entity goes, once, in the next physics-events frame to the owner
 //! this cluster knows, which applies it just before its next step. Writes are validated before
 //! they are queued (NaN, infinity and unknown entities are refused at the caller). An op that
-//! reaches a cluster which does not own its target (any more) is dropped and counted in
-//! [`ClusterStats::ops_dropped_not_owner`] — never applied, so never applied twice. A joint
-//! between entities of different owners is refused (`create_joint` returns `None`).
+//! reaches a cluster which no longer owns its target — it handed the entity over after the
+//! issuer routed the write — is forwarded, once, to the owner that cluster knows (the op is
+//! flagged on the wire, [`ClusterStats::ops_forwarded`]); a forwarded op that misses again, or
+//! one for an entity the receiver never owned, is dropped and counted in
+//! [`ClusterStats::ops_dropped_not_owner`]. So an op is applied at most once, and lost only
+//! with a lost frame or a dead owner. A joint between entities of different owners is refused
+//! (`create_joint` returns `None`).
 //!
 //! # Authority
 //!
@@ -100,16 +114,27 @@
 //! dynamic step and the new owner's first are consecutive: at every step exactly one cluster
 //! simulates the entity.
 //!
+//! Who hands what over is decided by game code ([`Cluster::transfer_authority`]) and by the
+//! cluster's [`AuthorityPolicy`], asked at every replication frame (`ClusterConfig::authority`;
+//! [`Cluster::set_authority_policy`] plugs in an affinity system). The default, [`Spatial`],
+//! makes authority follow entities through the world: a dynamic body whose centre, where it
+//! will be by the next frame, is more than a margin (0.25 m) past the seam, inside a live
+//! neighbour's region, is handed to that neighbour. Fast bodies are handed over before the
+//! step that crosses, so the cluster they enter simulates them against its own bodies; the
+//! chain keeps up while a body moves less than a region's width between frames (see
+//! `authority`).
+//!
 //! # Untrusted input
 //!
 //! Every received frame is counted once in [`ClusterStats`]: taken (`frames_accepted`), or
 //! refused as undecodable, of another format version, from a sender that is not a neighbour or
 //! not the cluster its channel names, as a replay (a frame of a live sender tagged no later than
 //! one of its frames of the same kind already taken: a sender publishes one per tick, in order;
-//! the first is kept), or as tagged further ahead than the sender could be (below). States from a cluster that does not own their entity, with
-//! NaN, or with a coordinate beyond `max_magnitude` are rejected and counted; so are routed ops
-//! with NaN, beyond `max_magnitude`, or for an entity not owned here. None of it panics or
-//! touches the world.
+//! the first is kept), or as tagged further ahead than the sender could be (below). States from
+//! a cluster that does not own their entity, with NaN, a coordinate or velocity beyond
+//! `max_magnitude`, a rotation that is not one or a shape with no size are rejected and
+//! counted; so are routed ops with NaN, beyond `max_magnitude`, or for an entity not owned
+//! here. None of it panics or touches the world.
 //!
 //! # Liveness
 //!
@@ -135,6 +160,10 @@
 //! > The adopter of an entity of dead cluster `D` is, among `D`'s neighbours not taken for dead,
 //! > the one whose region is nearest to the entity's last replicated position; a tie goes to the
 //! > smallest cluster id.
+//!
+//! The rule goes by the entity's position (its centre), not its extent: an owner must be one
+//! cluster, and every survivor must name the same one, while an extent can reach into several
+//! regions (the `Spatial` policy decides ownership by the centre for the same reason).
 //!
 //! Every survivor computes the same rule, so exactly one adopts each entity (a proxy becomes
 //! the body in place, or the body is spawned) and the others despawn their proxies of `D`

@@ -74,6 +74,7 @@ pub(crate) fn insert(
         collider,
         info: EntityInfo {
             cluster_id: state.cluster_id,
+            epoch: state.epoch,
             role,
             body: state.body,
         },
@@ -94,6 +95,7 @@ pub(crate) fn state_of(
         id,
         cluster_id: entry.info.cluster_id,
         tick,
+        epoch: entry.info.epoch,
         position: body.translation().to_array(),
         rotation: body.rotation().to_array(),
         linvel: body.linvel().to_array(),

@@ -38,6 +38,9 @@ impl BodyRole {
 pub struct EntityInfo {
     /// The entity's authority as this world last learned it.
     pub cluster_id: ClusterId,
+    /// How many times its authority had moved when this world last learned it (see
+    /// `EntityState::epoch`).
+    pub epoch: u32,
     /// The body's current role.
     pub role: BodyRole,
     /// Shape, density, CCD.
@@ -205,13 +208,20 @@ impl ClusterSim {
         Ok(())
     }
 
-    /// Records a new authority for the entity (the proxy layer's authority flips).
-    pub fn set_authority(&mut self, id: EntityId, cluster_id: ClusterId) -> Result<(), SimError> {
+    /// Records a new authority for the entity and the epoch it came with (the proxy layer's
+    /// authority flips).
+    pub fn set_authority(
+        &mut self,
+        id: EntityId,
+        cluster_id: ClusterId,
+        epoch: u32,
+    ) -> Result<(), SimError> {
         let entry = self
             .entities
             .get_mut(&id)
             .ok_or(SimError::UnknownEntity(id))?;
         entry.info.cluster_id = cluster_id;
+        entry.info.epoch = epoch;
         Ok(())
     }
 
@@ -228,6 +238,7 @@ impl ClusterSim {
             .get_index_mut(index)
             .ok_or(SimError::UnknownEntity(state.id))?;
         entry.info.cluster_id = state.cluster_id;
+        entry.info.epoch = state.epoch;
         body::apply_state(
             &mut self.world,
             &mut self.stale,

@@ -14,6 +14,7 @@
 //!         id: ball,
 //!         cluster_id: here,
 //!         tick: 0,
+//!         epoch: 0,
 //!         position: [0.0, 10.0, 0.0],
 //!         rotation: [0.0, 0.0, 0.0, 1.0],
 //!         linvel: [0.0; 3],

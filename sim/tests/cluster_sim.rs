@@ -14,6 +14,7 @@ fn ball(id: u128, owner: ClusterId, position: [f32; 3], radius: f32) -> EntitySt
         id: EntityId::from_u128(id),
         cluster_id: owner,
         tick: 0,
+        epoch: 0,
         position,
         rotation: [0.0, 0.0, 0.0, 1.0],
         linvel: [0.0; 3],

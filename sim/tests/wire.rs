@@ -10,6 +10,7 @@ fn state(i: u32) -> EntityState {
         id: EntityId::from_u128(i as u128 + 1),
         cluster_id: ClusterId::from_u128(7),
         tick: 42 + i as u64,
+        epoch: 0,
         position: [i as f32, 1.5, -2.0],
         rotation: [0.0, 0.0, 0.0, 1.0],
         linvel: [0.5, 0.0, 1e3],

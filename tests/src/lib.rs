@@ -244,6 +244,7 @@ pub fn ball_at(x: f32, owner: seam_sim::wire::ClusterId) -> seam_sim::wire::Enti
         id: EntityId::random(),
         cluster_id: owner,
         tick: 0,
+        epoch: 0,
         position: [x, 0.0, 0.0],
         rotation: [0.0, 0.0, 0.0, 1.0],
         linvel: [0.0; 3],

@@ -80,6 +80,7 @@ fn ball(position: [f32; 3], linvel: [f32; 3]) -> EntityState {
         id: EntityId::random(),
         cluster_id: ClusterId::random(), // replaced by spawn_owned
         tick: 0,
+        epoch: 0,
         position,
         rotation: [0.0, 0.0, 0.0, 1.0],
         linvel,
@@ -575,6 +576,7 @@ fn scenery_is_loaded_everywhere_and_never_replicated(ctx: &TestContext) {
         id: EntityId::random(),
         cluster_id: ClusterId::random(),
         tick: 0,
+        epoch: 0,
         position: [0.0, -0.5, 0.0],
         rotation: [0.0, 0.0, 0.0, 1.0],
         linvel: [0.0; 3],

@@ -250,6 +250,7 @@ fn authority_thrash_keeps_exactly_one_owner() {
         id: EntityId::random(),
         cluster_id: ids[0],
         tick: 0,
+        epoch: 0,
         position: [0.0; 3],
         rotation: [0.0, 0.0, 0.0, 1.0],
         linvel: [2.0, -0.5, 1.0],

@@ -26,6 +26,7 @@ pub fn run_owner(url: &str, events: &str, ack: &str, wait: WaitMode) -> Result<(
             id: TARGET,
             cluster_id: here,
             tick: 0,
+            epoch: 0,
             position: [0.0; 3],
             rotation: [0.0, 0.0, 0.0, 1.0],
             linvel: [0.0; 3],

@@ -282,6 +282,7 @@ impl Pod {
                             id,
                             cluster_id,
                             tick: 0,
+                            epoch: 0,
                             position: [0, 1, 2]
                                 .map(|a| entity.position[a] + offset[a] * grid.spacing[a]),
                             rotation: entity.rotation,
@@ -548,6 +549,7 @@ impl Pod {
                         id: self.ids.event_entity(index, shot),
                         cluster_id: self.cluster.id(),
                         tick,
+                        epoch: 0,
                         position: *position,
                         rotation: [0.0, 0.0, 0.0, 1.0],
                         linvel: *velocity,

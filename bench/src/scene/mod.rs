@@ -6,6 +6,19 @@
 //! raycast volley, a hand-off of authority. An entity walking across a region boundary is just
 //! an entity with a velocity. A scene models what it needs and nothing more.
 //!
+//! Roles: `dynamic` (the default: simulated by its owner), `fixed` and `kinematic` (owned and
+//! replicated, moved only by their owner), and `scenery`: static level geometry that every
+//! cluster loads itself, owned by none and never replicated — it takes no `owner` and no
+//! `mass`:
+//!
+//! ```toml
+//! [[entity]]
+//! name = "floor"
+//! role = "scenery"
+//! shape = { kind = "cuboid", half_extents = [30, 0.5, 10] }
+//! position = [0, -0.5, 0]
+//! ```
+//!
 //! ```toml
 //! name = "example"
 //! ticks = 600

@@ -60,6 +60,10 @@ pub struct EntityState {
     pub cluster_id: ClusterId,
     /// The authority's tick this state is from.
     pub tick: u64,
+    /// How many times the entity's authority has moved: each hand-off increments it. A state
+    /// older than what a cluster knows of the entity (a hand-off repeated after the entity
+    /// moved on) is not news and changes nothing.
+    pub epoch: u32,
     /// World position of the body origin, metres.
     pub position: [f32; 3],
     /// Orientation as a unit quaternion `[x, y, z, w]`.
@@ -305,7 +309,7 @@ where
 
 /// Most bytes one [`EntityState`] can take: the 84-byte block with its length byte, a 10-byte
 /// varint tick, the largest shape (tag and three floats), density and CCD flag.
-pub const MAX_STATE_LEN: usize = 1 + 84 + 10 + 1 + 12 + 4 + 1;
+pub const MAX_STATE_LEN: usize = 1 + 84 + 10 + 5 + 1 + 12 + 4 + 1;
 
 impl ReplicationFrame {
     /// An upper bound of the encoded size, without encoding: size a transport buffer with it

@@ -1,5 +1,6 @@
 //! The wire form of [`EntityState`]: the fixed-size part (ids, pose, velocities) as one byte
-//! block, then the tick and the body descriptor as ordinary postcard fields.
+//! block, then the tick, the authority epoch and the body descriptor as ordinary postcard
+//! fields.
 //!
 //! A frame of 10 000 states is mostly these blocks; moving each as one slice instead of ~40
 //! separate serde fields is what keeps encoding plus decoding of such a frame under a
@@ -41,9 +42,10 @@ impl Serialize for Block<'_> {
 
 impl Serialize for EntityState {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let mut tuple = serializer.serialize_tuple(3)?;
+        let mut tuple = serializer.serialize_tuple(4)?;
         tuple.serialize_element(&Block(&block_of(self)))?;
         tuple.serialize_element(&self.tick)?;
+        tuple.serialize_element(&self.epoch)?;
         tuple.serialize_element(&self.body)?;
         tuple.end()
     }
@@ -79,10 +81,11 @@ impl<'de> Deserialize<'de> for EntityState {
                 f.write_str("an entity state")
             }
             fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<EntityState, A::Error> {
-                let missing = |i| de::Error::invalid_length(i, &"3 fields");
+                let missing = |i| de::Error::invalid_length(i, &"4 fields");
                 let ReadBlock(block) = seq.next_element()?.ok_or_else(|| missing(0))?;
                 let tick: u64 = seq.next_element()?.ok_or_else(|| missing(1))?;
-                let body: BodyShape = seq.next_element()?.ok_or_else(|| missing(2))?;
+                let epoch: u32 = seq.next_element()?.ok_or_else(|| missing(2))?;
+                let body: BodyShape = seq.next_element()?.ok_or_else(|| missing(3))?;
                 let id = |at: usize| {
                     let mut bytes = [0u8; 16];
                     bytes.copy_from_slice(&block[at..at + 16]);
@@ -97,6 +100,7 @@ impl<'de> Deserialize<'de> for EntityState {
                     id: EntityId(id(0)),
                     cluster_id: ClusterId(id(16)),
                     tick,
+                    epoch,
                     position: three(0),
                     rotation: [floats[3], floats[4], floats[5], floats[6]],
                     linvel: three(7),
@@ -105,6 +109,6 @@ impl<'de> Deserialize<'de> for EntityState {
                 })
             }
         }
-        deserializer.deserialize_tuple(3, StateVisitor)
+        deserializer.deserialize_tuple(4, StateVisitor)
     }
 }

@@ -1,0 +1,160 @@
+//! A hand-off survives a lost frame: the old owner repeats it in every replication frame until
+//! the new owner's frames mention the entity, and a repeat that arrives after the entity moved
+//! on is recognised by its epoch and changes nothing.
+//!
+//! Two free-running clusters in one process on shared memory with a receive buffer of 4: the
+//! new owner stalls (does not tick) while the old owner runs on, so the frame that carried the
+//! hand-off is overwritten before it is read — as for a pod stopped past its buffer.
+
+use seam_proxy::{
+    AuthorityMode, AuthorityPolicy, AuthorityView, Cluster, ClusterConfig, lockstep_round,
+};
+use seam_sim::BodyRole;
+use seam_sim::wire::{ClusterId, EntityId};
+use seam_tests::{TestContext, ball_at};
+
+seam_tests::backend_tests!([shm: Shm], [a_handoff_whose_frame_is_lost_still_lands]);
+
+fn a_handoff_whose_frame_is_lost_still_lands(ctx: &TestContext) {
+    let url = ctx.url_with("buffer=4");
+    let (a, b) = (ClusterId::random(), ClusterId::random());
+    let mut clusters: Vec<Cluster> = [(a, b), (b, a)]
+        .into_iter()
+        .map(|(me, other)| {
+            let mut config = ClusterConfig::new(me, vec![other], &url);
+            config.gravity = [0.0; 3];
+            config.authority = AuthorityMode::Scripted;
+            Cluster::new(config).expect("cluster")
+        })
+        .collect();
+    let ball = ball_at(0.0, a);
+    clusters[0]
+        .spawn_owned(&ball, BodyRole::Dynamic)
+        .expect("spawn");
+    for _ in 0..3 {
+        for cluster in &mut clusters {
+            cluster.tick(|_, _| {}).expect("tick");
+        }
+    }
+    assert!(clusters[1].sim().contains(ball.id), "B has a proxy");
+
+    // A hands the ball to B, then runs on for 10 frames while B stalls: B's buffer of 4 keeps
+    // only the newest frames, so the one that carried the hand-off is gone.
+    clusters[0]
+        .transfer_authority(ball.id, b)
+        .expect("hand over");
+    for _ in 0..11 {
+        clusters[0].tick(|_, _| {}).expect("A ticks");
+    }
+    // B wakes, A hears it and ticks on: the ball ends with exactly one owner, B.
+    for _ in 0..5 {
+        for cluster in &mut clusters {
+            cluster.tick(|_, _| {}).expect("tick");
+        }
+    }
+    assert!(
+        clusters[1].transport_stats().overflow_drops > 0,
+        "B lost frames: {:?}",
+        clusters[1].transport_stats()
+    );
+    let owners: Vec<ClusterId> = clusters
+        .iter()
+        .filter(|c| {
+            c.sim()
+                .info(ball.id)
+                .is_some_and(|i| i.cluster_id == c.id() && i.role == BodyRole::Dynamic)
+        })
+        .map(|c| c.id())
+        .collect();
+    assert_eq!(owners, vec![b], "owned once, by B");
+    assert_eq!(clusters[1].stats().handoffs_in, 1);
+    assert_eq!(
+        clusters[0].sim().info(ball.id).map(|i| i.cluster_id),
+        Some(b),
+        "A keeps a proxy of B's ball"
+    );
+
+    // B hands it back; A's last repeats of the old hand-off to B, still in flight, are older
+    // than B's own hand-off and change nothing at B.
+    clusters[1]
+        .transfer_authority(ball.id, a)
+        .expect("hand back");
+    for _ in 0..5 {
+        for cluster in &mut clusters {
+            cluster.tick(|_, _| {}).expect("tick");
+        }
+    }
+    let owned_by = |c: &Cluster| {
+        c.sim()
+            .info(ball.id)
+            .is_some_and(|i| i.cluster_id == c.id() && i.role == BodyRole::Dynamic)
+    };
+    assert!(
+        owned_by(&clusters[0]) && !owned_by(&clusters[1]),
+        "back with A, once"
+    );
+}
+
+/// An authority policy that hands every entity its cluster owns to one neighbour at once.
+struct HandEverythingTo(ClusterId);
+
+impl AuthorityPolicy for HandEverythingTo {
+    fn decide(&mut self, view: &AuthorityView<'_>, handoffs: &mut Vec<(EntityId, ClusterId)>) {
+        handoffs.extend(view.owned.iter().map(|(state, _)| (state.id, self.0)));
+    }
+}
+
+/// B hands back at once every entity it takes. In lock-step, A's next frame still repeats its
+/// hand-off to B (A has not read B's answer yet) and reaches B after B gave the entity back:
+/// by its epoch B knows it for an old one and does not take the entity again. At every step
+/// exactly one cluster simulates it.
+#[test]
+fn a_repeated_handoff_arriving_after_the_entity_moved_on_changes_nothing() {
+    let url = format!("local?prefix=seam_repeat_{}_", std::process::id());
+    let (a, b) = (ClusterId::random(), ClusterId::random());
+    let mut clusters: Vec<Cluster> = [(a, b), (b, a)]
+        .into_iter()
+        .map(|(me, other)| {
+            let mut config = ClusterConfig::new(me, vec![other], &url);
+            config.gravity = [0.0; 3];
+            config.authority = AuthorityMode::Scripted;
+            Cluster::new(config).expect("cluster")
+        })
+        .collect();
+    clusters[1].set_authority_policy(Box::new(HandEverythingTo(a)));
+    let ball = ball_at(0.0, a);
+    clusters[0]
+        .spawn_owned(&ball, BodyRole::Dynamic)
+        .expect("spawn");
+    let timeout = std::time::Duration::from_secs(10);
+    for _ in 0..2 {
+        lockstep_round(&mut clusters, timeout, |_, _, _| {}).expect("round");
+    }
+    clusters[0]
+        .transfer_authority(ball.id, b)
+        .expect("hand over");
+    for round in 0..10 {
+        let mut simulated = 0;
+        lockstep_round(&mut clusters, timeout, |_, context, _| {
+            if context
+                .entity(ball.id)
+                .is_some_and(|info| info.role == BodyRole::Dynamic)
+            {
+                simulated += 1;
+            }
+        })
+        .expect("round");
+        assert!(simulated <= 1, "round {round}: simulated twice");
+    }
+    let owners = clusters
+        .iter()
+        .filter(|c| {
+            c.sim()
+                .info(ball.id)
+                .is_some_and(|i| i.cluster_id == c.id())
+        })
+        .count();
+    assert_eq!(owners, 1, "one owner at the end");
+    assert_eq!(clusters[1].stats().handoffs_in, 1, "B took it once");
+    assert_eq!(clusters[0].stats().handoffs_in, 1, "and gave it back once");
+}
