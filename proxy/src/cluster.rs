@@ -433,10 +433,12 @@ impl Cluster {
             .map(|(id, _)| id)
             .collect();
         for id in left {
+            // Never taken: its last frame does not list it as its own (it may list it as a
+            // hand-off to this cluster, if this was a hand-back it never took).
             let never_taken = self
                 .handed
                 .swap_remove(&id)
-                .filter(|_| !last.iter().any(|s| s.id == id));
+                .filter(|_| !last.iter().any(|s| s.id == id && s.cluster_id == dead));
             // Taken back as it was handed over (a Fixed proxy has lost its velocity since).
             let reclaimed = never_taken.is_some_and(|handed| {
                 let back = EntityState {
@@ -962,13 +964,19 @@ impl Cluster {
                     .is_none_or(|peer| peer.status != NeighbourStatus::Silent),
             })
             .collect();
+        // Adopted entities stay in custody until their owner returns and gets them back.
+        let owned: Vec<(EntityState, BodyRole)> = owned
+            .iter()
+            .filter(|(state, _)| !self.adopted.contains_key(&state.id))
+            .copied()
+            .collect();
         let view = AuthorityView {
             cluster: self.config.cluster_id,
             tick: self.sim.tick(),
             region: self.config.region,
             lookahead_s: self.config.dt * self.config.replication_interval.max(1) as f32,
             neighbours: &neighbours,
-            owned,
+            owned: &owned,
         };
         let mut handoffs = Vec::new();
         policy.decide(&view, &mut handoffs);

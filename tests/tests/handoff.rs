@@ -7,7 +7,8 @@
 //! hand-off is overwritten before it is read — as for a pod stopped past its buffer.
 
 use seam_proxy::{
-    AuthorityMode, AuthorityPolicy, AuthorityView, Cluster, ClusterConfig, lockstep_round,
+    AuthorityMode, AuthorityPolicy, AuthorityView, Cluster, ClusterConfig, Region, WorldCluster,
+    lockstep_round,
 };
 use seam_sim::BodyRole;
 use seam_sim::wire::{ClusterId, EntityId};
@@ -157,4 +158,73 @@ fn a_repeated_handoff_arriving_after_the_entity_moved_on_changes_nothing() {
     assert_eq!(owners, 1, "one owner at the end");
     assert_eq!(clusters[1].stats().handoffs_in, 1, "B took it once");
     assert_eq!(clusters[0].stats().handoffs_in, 1, "and gave it back once");
+}
+
+/// A hands the ball to B, which hands it straight back (its policy says so), and A dies before
+/// reading that: A's last frame lists the ball, but as handed to B. When B takes A for dead it
+/// must take the ball back, not count it as A's and drop it. (Before the fix this lost the
+/// `crossfire` runner under `seam chaos`.)
+#[test]
+fn a_hand_back_the_dead_never_took_is_taken_back() {
+    let url = format!("local?prefix=seam_handback_{}_", std::process::id());
+    let (a, b) = (ClusterId::random(), ClusterId::random());
+    let region = |x0: f32, x1: f32| Region {
+        min: [x0, -100.0, -100.0],
+        max: [x1, 100.0, 100.0],
+    };
+    let world = vec![
+        WorldCluster {
+            id: a,
+            region: region(-50.0, 0.0),
+            neighbours: vec![b],
+        },
+        WorldCluster {
+            id: b,
+            region: region(0.0, 50.0),
+            neighbours: vec![a],
+        },
+    ];
+    let mut clusters: Vec<Cluster> = [(a, b, region(-50.0, 0.0)), (b, a, region(0.0, 50.0))]
+        .into_iter()
+        .map(|(me, other, mine)| {
+            let mut config = ClusterConfig::new(me, vec![other], &url);
+            config.gravity = [0.0; 3];
+            config.region = mine;
+            config.spread = 2.0;
+            config.neighbour_timeout_ticks = 10;
+            config.world = world.clone();
+            config.authority = AuthorityMode::Scripted;
+            Cluster::new(config).expect("cluster")
+        })
+        .collect();
+    clusters[1].set_authority_policy(Box::new(HandEverythingTo(a)));
+    let ball = ball_at(-5.0, a);
+    clusters[0]
+        .spawn_owned(&ball, BodyRole::Dynamic)
+        .expect("spawn");
+    let dt = std::time::Duration::from_secs_f32(clusters[0].config().dt);
+    for _ in 0..3 {
+        for cluster in &mut clusters {
+            cluster.tick(|_, _| {}).expect("tick");
+        }
+        std::thread::sleep(dt);
+    }
+    clusters[0]
+        .transfer_authority(ball.id, b)
+        .expect("hand over");
+    clusters[0].tick(|_, _| {}).expect("A's last tick");
+    // A is dead from here on. B takes the ball, hands it back at once, and waits.
+    for _ in 0..30 {
+        clusters[1].tick(|_, _| {}).expect("B ticks");
+        std::thread::sleep(dt);
+    }
+    let stats = clusters[1].stats();
+    assert_eq!(stats.neighbours_lost, 1, "B took A for dead: {stats:?}");
+    let info = clusters[1].sim().info(ball.id).expect("B has the ball");
+    assert_eq!(
+        (info.cluster_id, info.role),
+        (b, BodyRole::Dynamic),
+        "B took back the hand-back A never took: {stats:?}"
+    );
+    assert_eq!(stats.handoffs_reclaimed, 1, "{stats:?}");
 }

@@ -354,9 +354,11 @@ impl ChaosReport {
             && self.frames.replayed == self.injected.forged_deliveries
     }
 
-    /// Whether every entity adopted from a dead or stopped pod was handed back to it.
+    /// Whether every entity adopted from a dead or stopped pod, and every hand-off to it taken
+    /// back, was handed back to it.
     pub fn adoptions_returned(&self) -> bool {
-        self.recovery.entities_adopted == self.recovery.entities_returned
+        let r = &self.recovery;
+        r.entities_adopted + r.handoffs_reclaimed == r.entities_returned
     }
 
     /// Whether memory held: every pod judged stayed within its bound, and a run long enough
@@ -426,11 +428,16 @@ pub fn table(r: &ChaosReport) -> String {
     );
     let o = &r.ownership;
     out += &format!(
-        "entities: {} expected, {} owned once, {} lost, {} owned twice\n",
+        "entities: {} expected, {} owned once, {} lost, {} owned twice{}\n",
         o.expected,
         o.owned_once,
         o.lost.len(),
-        o.duplicated.len()
+        o.duplicated.len(),
+        if o.names.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", o.names.join(", "))
+        }
     );
     let fr = &r.frames;
     out += &format!(
@@ -459,15 +466,15 @@ pub fn table(r: &ChaosReport) -> String {
     );
     let rc = &r.recovery;
     out += &format!(
-        "recovery: {} neighbours taken for dead, {} rejoined; {} entities adopted, {} returned{}, \
-         {} hand-offs reclaimed; {} disconnects, {} reconnects, {:.1} s down (pods summed), {} \
+        "recovery: {} neighbours taken for dead, {} rejoined; {} entities adopted and {} hand-offs \
+         reclaimed, {} returned{}; {} disconnects, {} reconnects, {:.1} s down (pods summed), {} \
          publishes dropped while down\n",
         rc.neighbours_lost,
         rc.neighbours_rejoined,
         rc.entities_adopted,
+        rc.handoffs_reclaimed,
         rc.entities_returned,
         mark(r.adoptions_returned()),
-        rc.handoffs_reclaimed,
         rc.disconnects,
         rc.reconnects,
         rc.down_s,
@@ -555,7 +562,7 @@ pub fn markdown(r: &ChaosReport) -> String {
         ("garbage delivered / refused", Right),
         ("forged delivered / replays", Right),
         ("entities expected / once / lost / twice", Left),
-        ("adopted / returned", Left),
+        ("adopted + reclaimed / returned", Left),
         ("panics", Right),
         ("memory growth: end, peak", Left),
         ("result", Left),
@@ -581,7 +588,12 @@ pub fn markdown(r: &ChaosReport) -> String {
             o.lost.len(),
             o.duplicated.len()
         ),
-        pair(r.recovery.entities_adopted, r.recovery.entities_returned),
+        format!(
+            "{} + {} / {}",
+            grouped(r.recovery.entities_adopted),
+            grouped(r.recovery.handoffs_reclaimed),
+            grouped(r.recovery.entities_returned)
+        ),
         r.panics.to_string(),
         memory.join("; "),
         if r.holds() { "held" } else { "FAILED" }.to_owned(),

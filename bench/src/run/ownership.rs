@@ -22,6 +22,9 @@ pub struct Ownership {
     pub lost: Vec<EntityId>,
     /// Owned by more than one pod.
     pub duplicated: Vec<EntityId>,
+    /// The scene names of the lost and the doubled (`name#i` for a grid copy, `projectile of
+    /// event i, shot k`), to tell at a glance what went wrong.
+    pub names: Vec<String>,
 }
 
 impl Ownership {
@@ -74,10 +77,48 @@ pub fn check(scene: &Scene, run_id: &str, reports: &[NodeReport]) -> Ownership {
         .collect();
     lost.sort();
     duplicated.sort();
+    let names = lost
+        .iter()
+        .map(|&id| format!("lost {}", name_of(scene, run_id, id)))
+        .chain(
+            duplicated
+                .iter()
+                .map(|&id| format!("owned twice {}", name_of(scene, run_id, id))),
+        )
+        .collect();
     Ownership {
         expected: expected.len(),
         owned_once: owners.values().filter(|&&n| n == 1).count(),
         lost,
         duplicated,
+        names,
     }
+}
+
+/// The scene name of entity `id` of run `run_id`: `name`, `name#i` for a grid copy,
+/// `projectile of event i, shot k`, or the id itself.
+pub fn name_of(scene: &Scene, run_id: &str, id: EntityId) -> String {
+    let ids = SceneIds::new(run_id, &scene.name);
+    for entity in &scene.entities {
+        let copies = entity.copies();
+        for index in 0..copies {
+            if ids.entity(&entity.name, index) == id {
+                return if copies > 1 {
+                    format!("{}#{index}", entity.name)
+                } else {
+                    entity.name.clone()
+                };
+            }
+        }
+    }
+    for (index, event) in scene.events.iter().enumerate() {
+        let shots = match event.every() {
+            Some(every) if every > 0 => scene.ticks.saturating_sub(event.tick()) / every + 1,
+            _ => 1,
+        };
+        if let Some(shot) = (0..shots).find(|&shot| ids.event_entity(index, shot) == id) {
+            return format!("projectile of event {index}, shot {shot}");
+        }
+    }
+    id.to_string()
 }

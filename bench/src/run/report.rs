@@ -320,7 +320,11 @@ pub fn table(report: &RunReport) -> String {
         o.owned_once,
         o.lost.len(),
         o.duplicated.len(),
-        if o.holds() { "" } else { "  <-- FAILED" }
+        if o.holds() {
+            String::new()
+        } else {
+            format!("  <-- FAILED: {}", o.names.join(", "))
+        }
     );
     out
 }
