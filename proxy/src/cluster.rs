@@ -778,9 +778,11 @@ impl Cluster {
         let (me, from) = (self.config.cluster_id, frame.from);
         let mut listed: IdMap<EntityId, ()> = IdMap::default();
         // A hand-off this cluster made to `from` is answered once `from` mentions the entity.
-        self.handed.retain(|id, handed| {
-            handed.cluster_id != from || !frame.states.iter().any(|s| s.id == *id)
-        });
+        if self.handed.values().any(|handed| handed.cluster_id == from) {
+            let mentioned: IdMap<EntityId, ()> = frame.states.iter().map(|s| (s.id, ())).collect();
+            self.handed
+                .retain(|id, handed| handed.cluster_id != from || !mentioned.contains_key(id));
+        }
         for state in &frame.states {
             let limit = self.config.max_magnitude;
             let absurd = ![state.position, state.linvel, state.angvel]
@@ -965,18 +967,24 @@ impl Cluster {
             })
             .collect();
         // Adopted entities stay in custody until their owner returns and gets them back.
-        let owned: Vec<(EntityState, BodyRole)> = owned
-            .iter()
-            .filter(|(state, _)| !self.adopted.contains_key(&state.id))
-            .copied()
-            .collect();
+        let custody: Vec<(EntityState, BodyRole)>;
+        let owned = if self.adopted.is_empty() {
+            owned
+        } else {
+            custody = owned
+                .iter()
+                .filter(|(state, _)| !self.adopted.contains_key(&state.id))
+                .copied()
+                .collect();
+            &custody
+        };
         let view = AuthorityView {
             cluster: self.config.cluster_id,
             tick: self.sim.tick(),
             region: self.config.region,
             lookahead_s: self.config.dt * self.config.replication_interval.max(1) as f32,
             neighbours: &neighbours,
-            owned: &owned,
+            owned,
         };
         let mut handoffs = Vec::new();
         policy.decide(&view, &mut handoffs);
