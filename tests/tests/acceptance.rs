@@ -75,6 +75,27 @@ fn pair(ctx: &TestContext, gravity: bool, tune: impl Fn(&mut ClusterConfig)) -> 
         .collect()
 }
 
+/// Three clusters, each the neighbour of both others, zero gravity; the first owns a ball at
+/// the origin, which the others know as a proxy after two rounds.
+fn trio_with_a_ball(ctx: &TestContext) -> (Vec<Cluster>, Vec<ClusterId>, EntityState) {
+    let ids: Vec<ClusterId> = (0..3).map(|_| ClusterId::random()).collect();
+    let mut clusters: Vec<Cluster> = ids
+        .iter()
+        .map(|&me| {
+            let others = ids.iter().copied().filter(|&c| c != me).collect();
+            let mut config = ClusterConfig::new(me, others, &ctx.url());
+            config.gravity = [0.0; 3];
+            Cluster::new(config).expect("cluster")
+        })
+        .collect();
+    let entity = ball([0.0; 3], [0.0; 3]);
+    clusters[0]
+        .spawn_owned(&entity, BodyRole::Dynamic)
+        .expect("spawn");
+    rounds(&mut clusters, 2);
+    (clusters, ids, entity)
+}
+
 fn ball(position: [f32; 3], linvel: [f32; 3]) -> EntityState {
     EntityState {
         id: EntityId::random(),
@@ -510,21 +531,7 @@ fn op_after_hand_off_is_forwarded_once(ctx: &TestContext) {
 /// An op is forwarded at most once: when it reaches a cluster that no longer owns the target
 /// after being forwarded, it is dropped and counted, never sent on again or applied.
 fn forwarded_op_is_never_forwarded_again(ctx: &TestContext) {
-    let ids: Vec<ClusterId> = (0..3).map(|_| ClusterId::random()).collect();
-    let mut clusters: Vec<Cluster> = ids
-        .iter()
-        .map(|&me| {
-            let others = ids.iter().copied().filter(|&c| c != me).collect();
-            let mut config = ClusterConfig::new(me, others, &ctx.url());
-            config.gravity = [0.0; 3];
-            Cluster::new(config).expect("cluster")
-        })
-        .collect();
-    let entity = ball([0.0; 3], [0.0; 3]);
-    clusters[0]
-        .spawn_owned(&entity, BodyRole::Dynamic)
-        .expect("spawn");
-    rounds(&mut clusters, 2);
+    let (mut clusters, ids, entity) = trio_with_a_ball(ctx);
     // A hands it to B; in the same round C, still seeing A as the owner, writes to it. B's
     // policy hands everything it owns to C at once, so the write A forwards to B finds it gone.
     clusters[1].set_authority_policy(Box::new(HandEverythingTo(ids[2])));
@@ -722,21 +729,7 @@ fn custom_proxy_hook_moves_proxies(ctx: &TestContext) {
 
 /// A hands an entity to B; C, which writes to it, routes to B from then on.
 fn third_cluster_routes_to_the_new_owner(ctx: &TestContext) {
-    let ids: Vec<ClusterId> = (0..3).map(|_| ClusterId::random()).collect();
-    let mut clusters: Vec<Cluster> = ids
-        .iter()
-        .map(|&me| {
-            let others = ids.iter().copied().filter(|&c| c != me).collect();
-            let mut config = ClusterConfig::new(me, others, &ctx.url());
-            config.gravity = [0.0; 3];
-            Cluster::new(config).expect("cluster")
-        })
-        .collect();
-    let entity = ball([0.0; 3], [0.0; 3]);
-    clusters[0]
-        .spawn_owned(&entity, BodyRole::Dynamic)
-        .expect("spawn");
-    rounds(&mut clusters, 2);
+    let (mut clusters, ids, entity) = trio_with_a_ball(ctx);
     clusters[0]
         .transfer_authority(entity.id, ids[1])
         .expect("hand over");

@@ -16,6 +16,25 @@ use seam_tests::{TestContext, ball_at};
 
 seam_tests::backend_tests!([shm: Shm], [a_handoff_whose_frame_is_lost_still_lands]);
 
+/// Two neighbouring clusters on `url`, zero gravity, scripted authority, each tuned by `tune`
+/// (its index, both ids, its configuration); returns them and their ids.
+fn pair(
+    url: &str,
+    tune: impl Fn(usize, &[ClusterId; 2], &mut ClusterConfig),
+) -> (Vec<Cluster>, ClusterId, ClusterId) {
+    let ids = [ClusterId::random(), ClusterId::random()];
+    let clusters = (0..2)
+        .map(|index| {
+            let mut config = ClusterConfig::new(ids[index], vec![ids[1 - index]], url);
+            config.gravity = [0.0; 3];
+            config.authority = AuthorityMode::Scripted;
+            tune(index, &ids, &mut config);
+            Cluster::new(config).expect("cluster")
+        })
+        .collect();
+    (clusters, ids[0], ids[1])
+}
+
 fn a_handoff_whose_frame_is_lost_still_lands(ctx: &TestContext) {
     let url = ctx.url_with("buffer=4");
     let (a, b) = (ClusterId::random(), ClusterId::random());
@@ -167,36 +186,24 @@ fn a_repeated_handoff_arriving_after_the_entity_moved_on_changes_nothing() {
 #[test]
 fn a_hand_back_the_dead_never_took_is_taken_back() {
     let url = format!("local?prefix=seam_handback_{}_", std::process::id());
-    let (a, b) = (ClusterId::random(), ClusterId::random());
     let region = |x0: f32, x1: f32| Region {
         min: [x0, -100.0, -100.0],
         max: [x1, 100.0, 100.0],
     };
-    let world = vec![
-        WorldCluster {
-            id: a,
-            region: region(-50.0, 0.0),
-            neighbours: vec![b],
-        },
-        WorldCluster {
-            id: b,
-            region: region(0.0, 50.0),
-            neighbours: vec![a],
-        },
-    ];
-    let mut clusters: Vec<Cluster> = [(a, b, region(-50.0, 0.0)), (b, a, region(0.0, 50.0))]
-        .into_iter()
-        .map(|(me, other, mine)| {
-            let mut config = ClusterConfig::new(me, vec![other], &url);
-            config.gravity = [0.0; 3];
-            config.region = mine;
-            config.spread = 2.0;
-            config.neighbour_timeout_ticks = 10;
-            config.world = world.clone();
-            config.authority = AuthorityMode::Scripted;
-            Cluster::new(config).expect("cluster")
-        })
-        .collect();
+    let regions = [region(-50.0, 0.0), region(0.0, 50.0)];
+    let (mut clusters, a, _) = pair(&url, |index, ids, config| {
+        config.region = regions[index];
+        config.spread = 2.0;
+        config.neighbour_timeout_ticks = 10;
+        config.world = (0..2)
+            .map(|i| WorldCluster {
+                id: ids[i],
+                region: regions[i],
+                neighbours: vec![ids[1 - i]],
+            })
+            .collect();
+    });
+    let b = clusters[1].id();
     clusters[1].set_authority_policy(Box::new(HandEverythingTo(a)));
     let ball = ball_at(-5.0, a);
     clusters[0]
