@@ -68,10 +68,13 @@ enum Command {
     },
     /// Compare one setting against the single-world reference: accuracy and cost.
     ///
-    /// Runs the scene split over its clusters in lock-step (in this process, on iceoryx2's
+    /// Runs each scene split over its clusters in lock-step (in this process, on iceoryx2's
     /// in-process transport) and as one world owning everything, tick for tick, and prints
-    /// position and orientation error, projectile hit recall and precision, momentum error,
-    /// hand-off jumps, and the split run's tick time, bytes per tick, proxies and op delay.
+    /// position and orientation error (and the body furthest off), projectile hit recall and
+    /// precision, momentum error, hand-offs and their jumps, bodies with two owners or none,
+    /// bodies that escaped (fell through or flew off where the single world's did not), and the
+    /// split run's tick time (per cluster and summed, against the single world's), bytes per
+    /// tick, proxies and op delay. `--markdown` prints one table row per scene.
     Compare {
         /// The scene files (TOML), each compared in turn.
         #[arg(required = true)]
@@ -84,13 +87,14 @@ enum Command {
     /// Sweep settings against the single-world reference: `sweep.csv` and charts.
     ///
     /// For each scene, runs one trial (as `seam compare`) per combination of proxy mode (fixed,
-    /// kinematic), replication interval (1, 2, 4, 8), projectile speed (10–2 000 m/s),
-    /// projectile CCD (off, on) and observation spread (1, 3, 10 m, everything), in lock-step;
-    /// then the transport axis: the scene as free-running pods (`seam run`) on shm and Redis,
-    /// per proxy mode at the shortest and longest interval, compared by hits and final
-    /// positions, with routed-op latency. Writes
-    /// OUT/sweep.csv (one row per trial, every metric) and, as SVG and PNG,
-    /// OUT/accuracy_vs_cost (Pareto front marked) and OUT/hit_recall_vs_speed_{fixed,kinematic}.
+    /// kinematic), replication interval (1, 2, 4, 8), observation spread (1, 3, 10 m,
+    /// everything) and, for scenes that fire projectiles, projectile speed (10–2 000 m/s) and
+    /// CCD (off, on), in lock-step; then the transport axis: the scene as free-running pods
+    /// (`seam run`) on shm and Redis, per proxy mode at the shortest and longest interval,
+    /// compared by hits and final positions, with routed-op latency. Writes OUT/sweep.csv (one
+    /// row per trial, every metric) and, as SVG and PNG, OUT/accuracy_vs_cost_SCENE (position or
+    /// hit error against CPU per tick summed over clusters and against bytes per tick, Pareto
+    /// front marked) and, for scenes with hits, OUT/hit_recall_vs_speed_SCENE_{fixed,kinematic}.
     Sweep {
         /// Scene files (default: gallery, corridor, stacks, grid and crossfire of
         /// bench/scenes/).

@@ -130,3 +130,52 @@ grid = { count = [3, 1, 3], spacing = [1, 0, 1] }
         .expect_err("no y spacing: the layers would overlap");
     assert!(err.contains("y spacing"), "{err}");
 }
+
+#[test]
+fn scenery_has_no_owner_and_needs_no_mass() {
+    let scenery = r#"name = "t"
+
+[[cluster]]
+name = "a"
+region = { min = [0, 0, 0], max = [1, 1, 1] }
+
+[[entity]]
+name = "floor"
+role = "scenery"
+shape = { kind = "cuboid", half_extents = [5, 0.5, 5] }
+position = [0, -0.5, 0]
+"#;
+    let scene = parse("scenery.toml", scenery).expect("valid");
+    assert!(scene.entities[0].is_scenery());
+    assert!(scene.entities[0].mass() > 0.0);
+    let owned = scenery.replace("role = \"scenery\"", "role = \"scenery\"\nowner = \"a\"");
+    assert!(
+        error(&owned).contains("scenery is owned by no cluster"),
+        "{}",
+        error(&owned)
+    );
+    let unowned = GOOD.replace("owner = \"a\"\n", "");
+    assert!(
+        error(&unowned).contains("field `owner` is required"),
+        "{}",
+        error(&unowned)
+    );
+    let massless = GOOD.replace("mass = 1.0\n", "");
+    assert!(
+        error(&massless).contains("field `mass` is required"),
+        "{}",
+        error(&massless)
+    );
+    let handed = format!(
+        "{scenery}\n[[event]]\ntick = 1\nkind = \"handoff\"\nentity = \"floor\"\nto = \"a\"\n"
+    );
+    assert!(error(&handed).contains("is scenery"), "{}", error(&handed));
+}
+
+#[test]
+fn every_bundled_scene_loads() {
+    for name in ["crossfire", "grid", "gallery", "stacks", "corridor"] {
+        load(&scene_file(&format!("{name}.toml"))).unwrap_or_else(|e| panic!("{e}"));
+    }
+    load(&scene_file("variants/crossfire-owner-blasts.toml")).expect("the variant loads");
+}
