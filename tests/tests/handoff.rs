@@ -37,16 +37,7 @@ fn pair(
 
 fn a_handoff_whose_frame_is_lost_still_lands(ctx: &TestContext) {
     let url = ctx.url_with("buffer=4");
-    let (a, b) = (ClusterId::random(), ClusterId::random());
-    let mut clusters: Vec<Cluster> = [(a, b), (b, a)]
-        .into_iter()
-        .map(|(me, other)| {
-            let mut config = ClusterConfig::new(me, vec![other], &url);
-            config.gravity = [0.0; 3];
-            config.authority = AuthorityMode::Scripted;
-            Cluster::new(config).expect("cluster")
-        })
-        .collect();
+    let (mut clusters, a, b) = pair(&url, |_, _, _| {});
     let ball = ball_at(0.0, a);
     clusters[0]
         .spawn_owned(&ball, BodyRole::Dynamic)
@@ -131,16 +122,7 @@ impl AuthorityPolicy for HandEverythingTo {
 #[test]
 fn a_repeated_handoff_arriving_after_the_entity_moved_on_changes_nothing() {
     let url = format!("local?prefix=seam_repeat_{}_", std::process::id());
-    let (a, b) = (ClusterId::random(), ClusterId::random());
-    let mut clusters: Vec<Cluster> = [(a, b), (b, a)]
-        .into_iter()
-        .map(|(me, other)| {
-            let mut config = ClusterConfig::new(me, vec![other], &url);
-            config.gravity = [0.0; 3];
-            config.authority = AuthorityMode::Scripted;
-            Cluster::new(config).expect("cluster")
-        })
-        .collect();
+    let (mut clusters, a, b) = pair(&url, |_, _, _| {});
     clusters[1].set_authority_policy(Box::new(HandEverythingTo(a)));
     let ball = ball_at(0.0, a);
     clusters[0]
