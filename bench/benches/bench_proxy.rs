@@ -57,6 +57,7 @@ fn scene(proxies: usize) -> Vec<Cluster> {
                 shape: Shape::Ball { radius: 0.5 },
                 density: 1000.0,
                 ccd: false,
+                simulated: true,
             },
         };
         a.spawn_owned(&state, BodyRole::Dynamic).expect("spawn");

@@ -37,6 +37,7 @@ fn events(batch: usize) -> PhysicsEventsFrame {
             })
             .collect(),
         contacts: Vec::new(),
+        impulses: Vec::new(),
     }
 }
 
@@ -71,6 +72,7 @@ fn state(i: usize, owner: ClusterId) -> EntityState {
             shape: Shape::Ball { radius: 0.5 },
             density: 1000.0,
             ccd: false,
+            simulated: true,
         },
     }
 }

@@ -72,6 +72,7 @@ fn state_in(i: usize, order: Order) -> EntityState {
             },
             density: 1000.0,
             ccd: false,
+            simulated: true,
         },
     }
 }

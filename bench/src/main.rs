@@ -55,6 +55,11 @@ enum Command {
         /// A replication frame every this many ticks.
         #[arg(long, default_value_t = 1)]
         replication_interval: u64,
+        /// Contacts do not push across the seam: proxies stay immovable (Fixed) or infinitely
+        /// heavy (kinematic) whatever they meet, as before contact coupling (see
+        /// `seam_sim::coupling`). For measuring what coupling buys.
+        #[arg(long)]
+        no_coupling: bool,
         /// Stack this many copies of every grid entity along y, `spacing[1]` apart: the same
         /// traffic with more entities (`grid` holds 2 500 balls per layer).
         #[arg(long, default_value_t = 1)]
@@ -96,8 +101,8 @@ enum Command {
     /// hit error against CPU per tick summed over clusters and against bytes per tick, Pareto
     /// front marked) and, for scenes with hits, OUT/hit_recall_vs_speed_SCENE_{fixed,kinematic}.
     Sweep {
-        /// Scene files (default: gallery, corridor, stacks, grid and crossfire of
-        /// bench/scenes/).
+        /// Scene files (default: gallery, corridor, stacks, light-on-heavy, equal-masses,
+        /// seam-stack, grid and crossfire of bench/scenes/).
         #[arg(long = "scene")]
         scenes: Vec<std::path::PathBuf>,
         /// A reduced grid: fixed/kinematic × interval 1, 4 × 50, 500, 2 000 m/s × CCD off/on ×
@@ -221,7 +226,8 @@ enum Command {
     /// Check scene files and summarise them (clusters, entities, events, ticks).
     ///
     /// A bad file is reported as FILE:LINE:COLUMN with the field and what is wrong. The format
-    /// is described in `bench/src/scene/mod.rs`; `bench/scenes/` has `crossfire` and `grid`.
+    /// is described in `bench/src/scene/mod.rs`; `bench/scenes/` has one scene per class of
+    /// problem (README's scene table).
     Scene {
         /// Scene files (TOML).
         #[arg(required = true)]
@@ -278,6 +284,11 @@ struct Knobs {
     /// A replication frame every this many ticks.
     #[arg(long, default_value_t = 1)]
     replication_interval: u64,
+    /// Contacts do not push across the seam: proxies stay immovable (Fixed) or infinitely
+    /// heavy (kinematic) whatever they meet, as before contact coupling (see
+    /// `seam_sim::coupling`). For measuring what coupling buys.
+    #[arg(long)]
+    no_coupling: bool,
     /// Observation spread of every cluster, m (default: the scene's).
     #[arg(long)]
     spread: Option<f32>,
@@ -301,6 +312,7 @@ impl Knobs {
             proxy_mode: self.proxy_mode.into(),
             authority: self.authority,
             replication_interval: self.replication_interval.max(1),
+            coupling: !self.no_coupling,
             spread: self.spread,
             interest: !self.everything,
             projectile_speed: self.speed,
@@ -346,10 +358,19 @@ fn sweep(
     out: &std::path::Path,
 ) -> Result<(), String> {
     let paths = if scenes.is_empty() {
-        ["gallery", "corridor", "stacks", "grid", "crossfire"]
-            .iter()
-            .map(|name| format!("bench/scenes/{name}.toml").into())
-            .collect()
+        [
+            "gallery",
+            "corridor",
+            "stacks",
+            "light-on-heavy",
+            "equal-masses",
+            "seam-stack",
+            "grid",
+            "crossfire",
+        ]
+        .iter()
+        .map(|name| format!("bench/scenes/{name}.toml").into())
+        .collect()
     } else {
         scenes
     };
@@ -537,6 +558,7 @@ fn main() -> ExitCode {
             proxy_mode,
             authority,
             replication_interval,
+            no_coupling,
             layers,
             in_phase,
             output,
@@ -548,6 +570,7 @@ fn main() -> ExitCode {
             proxy_mode,
             authority,
             replication_interval,
+            coupling: !no_coupling,
             layers,
             run_id: run::fresh_run_id(),
             node_command: Vec::new(),

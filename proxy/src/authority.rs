@@ -220,6 +220,7 @@ mod tests {
                 shape: Shape::Ball { radius: 0.5 },
                 density: 1.0,
                 ccd: false,
+                simulated: true,
             },
         };
         (state, BodyRole::Dynamic)

@@ -4,7 +4,7 @@ use std::time::{Duration, Instant};
 
 use seam_sim::wire::{
     self, ClusterId, ContactReport, EntityId, EntityState, IdMap, PhysicsEventsFrame, PhysicsOp,
-    ReplicationFrame, RoutedOp,
+    ReplicationFrame, RoutedOp, SeamImpulseReport,
 };
 use seam_sim::{
     BodyRole, ClusterSim, ContactEvent, PhysicsHandle, SimConfig, SimError, TickContext,
@@ -17,10 +17,12 @@ use crate::authority::{AuthorityMode, AuthorityPolicy, AuthorityView, NeighbourV
 use crate::channels::{self, Channel};
 use crate::clock::{OpTiming, monotonic_ns};
 use crate::config::{ClusterConfig, CustomProxy, ProxyMode, Region};
+use crate::contact_merge::ContactMerge;
 use crate::dead_reckoning;
 use crate::error::ClusterError;
 use crate::inbox::{Inbox, TickFrames};
 use crate::interest::{Interest, extent};
+use crate::settle::{HALF_WAITS_TICKS, Settlement};
 use crate::stats::ClusterStats;
 
 /// Writes on remote-owned entities, queued by owner until the tick publishes.
@@ -127,6 +129,13 @@ pub struct Cluster {
     interest: Interest,
     /// The policy asked for hand-offs at each replication frame (see `crate::authority`).
     policy: Option<Box<dyn AuthorityPolicy>>,
+    /// Contacts surfaced lately, so each surfaces once (see `crate::contact_merge`).
+    contact_merge: ContactMerge,
+    /// What contacts across the seam gave this cluster's bodies, by the proxy's owner, for
+    /// this tick's publish (see `crate::settle`).
+    outgoing_impulses: IdMap<ClusterId, Vec<SeamImpulseReport>>,
+    /// Own halves of those impulses not given back yet.
+    settlement: Settlement,
 }
 
 impl Cluster {
@@ -186,6 +195,9 @@ impl Cluster {
             adopted: IdMap::default(),
             transport_was_up: true,
             free_running: false,
+            contact_merge: ContactMerge::default(),
+            outgoing_impulses: IdMap::default(),
+            settlement: Settlement::default(),
             policy: match config_authority {
                 AuthorityMode::Spatial(settings) => Some(Box::new(Spatial::new(settings))),
                 AuthorityMode::Scripted | AuthorityMode::Custom => None,
@@ -412,9 +424,9 @@ impl Cluster {
             let done = match self.sim.info(state.id).map(|i| i.cluster_id) {
                 Some(owner) if owner == dead => self
                     .sim
-                    .set_role(state.id, BodyRole::Dynamic)
+                    .set_role(state.id, owner_role(state))
                     .and_then(|()| self.sim.apply_state(&adopted)),
-                None => self.sim.spawn(&adopted, BodyRole::Dynamic),
+                None => self.sim.spawn(&adopted, owner_role(state)),
                 // Already someone else's here: not the dead cluster's to give.
                 Some(_) => continue,
             };
@@ -446,7 +458,7 @@ impl Cluster {
                     epoch: handed.epoch + 1,
                     ..handed
                 };
-                self.sim.set_role(id, BodyRole::Dynamic).is_ok()
+                self.sim.set_role(id, owner_role(&back)).is_ok()
                     && self.sim.apply_state(&back).is_ok()
             });
             if reclaimed {
@@ -671,18 +683,38 @@ impl Cluster {
                 self.last_states.insert(frame.from, frame.states);
             }
         }
-        let reported = frames
-            .events
-            .iter()
-            .flat_map(|(f, _)| &f.contacts)
-            .map(|c| ContactEvent {
-                a: c.a,
-                b: c.b,
-                started: c.started,
-            });
-        let before = self.sim.contacts().len();
+        // Each contact once per side (see `crate::contact_merge`): this world's own events,
+        // then the neighbours' reports.
+        let tick = self.sim.tick();
+        let merge = &mut self.contact_merge;
+        merge.expire(tick);
+        let mut merged = 0;
+        self.sim.retain_contacts(|c| {
+            let new = merge.is_new(c, tick, true);
+            merged += u64::from(!new);
+            new
+        });
+        let mut reported = Vec::new();
+        for (frame, _) in &frames.events {
+            for c in &frame.contacts {
+                self.stats.contacts_received += 1;
+                let event = ContactEvent {
+                    a: c.a,
+                    b: c.b,
+                    started: c.started,
+                    impulse: c.impulse,
+                    normal: c.normal,
+                    reported_by: Some(frame.from),
+                };
+                if merge.is_new(&event, tick, false) {
+                    reported.push(event);
+                } else {
+                    merged += 1;
+                }
+            }
+        }
+        self.stats.contacts_merged += merged;
         self.sim.add_contacts(reported);
-        self.stats.contacts_received += (self.sim.contacts().len() - before) as u64;
 
         // User code; writes on remote-owned entities go to the outbox.
         let mut outbox = Outbox {
@@ -692,8 +724,10 @@ impl Cluster {
         };
         self.sim.run_user(&mut outbox, user);
 
-        // Routed writes received, applied just before the step.
+        // Contacts across the seam settled (see `crate::settle`), then routed writes received,
+        // all applied just before the step.
         let tick = self.sim.tick();
+        self.settle_seam_impulses(&frames.events, tick);
         for (frame, received_ns) in &frames.events {
             for routed in &frame.ops {
                 if let Some(v) = routed.op.vector()
@@ -748,8 +782,13 @@ impl Cluster {
             }
         }
 
+        if self.config.coupling && self.config.proxy_mode != ProxyMode::Custom {
+            let changes = self.sim.couple_proxies(self.proxy_role());
+            self.stats.proxies_coupled += u64::from(changes.coupled);
+        }
         self.sim.step();
         self.report_contacts();
+        self.report_seam_impulses();
         self.publish()?;
         self.stats.ticks += 1;
         Ok(())
@@ -866,7 +905,7 @@ impl Cluster {
             // Handed to this cluster: the proxy becomes the body, in place, with the final pose
             // and velocity the old owner sent.
             self.sim
-                .set_role(state.id, BodyRole::Dynamic)
+                .set_role(state.id, owner_role(state))
                 .map_err(|_| ())?;
             self.sim.apply_state(state).map_err(|_| ())?;
             self.stats.handoffs_in += 1;
@@ -888,12 +927,20 @@ impl Cluster {
 
     /// Handed to this cluster an entity it had no proxy of: it starts as the body.
     fn take_over_unseen(&mut self, state: &EntityState) -> Result<(), ()> {
-        self.sim.spawn(state, BodyRole::Dynamic).map_err(|_| ())?;
+        self.sim.spawn(state, owner_role(state)).map_err(|_| ())?;
         self.stats.handoffs_in += 1;
         Ok(())
     }
 
     fn update_proxy(&mut self, state: &EntityState) -> Result<(), ()> {
+        let coupled = self
+            .sim
+            .info(state.id)
+            .is_some_and(|info| info.role == BodyRole::Dynamic);
+        if coupled {
+            // Simulated here for now (see `seam_sim::coupling`): set to what its owner says.
+            return self.sim.apply_state(state).map_err(|_| ());
+        }
         match self.config.proxy_mode {
             ProxyMode::Fixed => self.sim.apply_state(state).map_err(|_| ()),
             ProxyMode::KinematicVelocityBased => {
@@ -915,7 +962,12 @@ impl Cluster {
     fn report_contacts(&mut self) {
         let me = self.config.cluster_id;
         let tick = self.sim.tick();
-        for contact in self.sim.contacts() {
+        for contact in self
+            .sim
+            .contacts()
+            .iter()
+            .filter(|c| c.reported_by.is_none())
+        {
             let owner = |id| self.sim.info(id).map(|i| i.cluster_id);
             let (Some(owner_a), Some(owner_b)) = (owner(contact.a), owner(contact.b)) else {
                 continue;
@@ -937,8 +989,84 @@ impl Cluster {
                     b: contact.b,
                     started: contact.started,
                     tick,
+                    impulse: contact.impulse,
+                    normal: contact.normal,
                 });
             self.stats.contacts_sent += 1;
+        }
+    }
+
+    /// What contacts across the seam gave this cluster's bodies in the last step: noted for
+    /// settling, and sent to each proxy's owner.
+    fn report_seam_impulses(&mut self) {
+        if !self.config.coupling {
+            return;
+        }
+        let tick = self.sim.tick();
+        let impulses = self.sim.seam_impulses();
+        for i in &impulses {
+            let Some(owner) = self.sim.info(i.proxy).map(|info| info.cluster_id) else {
+                continue;
+            };
+            if self.config.neighbours.contains(&owner) {
+                self.outgoing_impulses
+                    .entry(owner)
+                    .or_default()
+                    .push(SeamImpulseReport {
+                        own: i.own,
+                        other: i.proxy,
+                        impulse: i.impulse,
+                        tick,
+                    });
+                self.stats.seam_impulses_sent += 1;
+            }
+        }
+        self.settlement.record(tick, &impulses);
+    }
+
+    /// Gives this cluster's bodies back half of what each world's contact across the seam gave
+    /// them (see `crate::settle`), as impulses. Reports naming a body this cluster does not
+    /// simulate (handed on since), or with values that are not finite or beyond
+    /// `max_magnitude`, change nothing and are counted.
+    fn settle_seam_impulses(&mut self, events: &[(PhysicsEventsFrame, u64)], tick: u64) {
+        let me = self.config.cluster_id;
+        let limit = self.config.max_magnitude;
+        let mut received = Vec::new();
+        for (frame, _) in events {
+            for report in &frame.impulses {
+                self.stats.seam_impulses_received += 1;
+                let simulated_here = self
+                    .sim
+                    .info(report.other)
+                    .is_some_and(|i| i.cluster_id == me && i.role == BodyRole::Dynamic);
+                if simulated_here && within(report.impulse, limit) {
+                    received.push(*report);
+                } else {
+                    self.stats.seam_impulses_dropped += 1;
+                }
+            }
+        }
+        let wait = if self.free_running {
+            HALF_WAITS_TICKS
+        } else {
+            0
+        };
+        let settled = self.settlement.settle(received, tick, wait);
+        self.stats.seam_impulses_disagreed += settled.disagreed;
+        self.stats.seam_impulses_unmatched += settled.unmatched;
+        for (target, impulse) in settled.impulses {
+            let simulated_here = self
+                .sim
+                .info(target)
+                .is_some_and(|i| i.cluster_id == me && i.role == BodyRole::Dynamic);
+            if simulated_here
+                && self
+                    .sim
+                    .apply_op(&PhysicsOp::Impulse { target, impulse })
+                    .is_ok()
+            {
+                self.stats.seam_impulses_settled += 1;
+            }
         }
     }
 
@@ -1076,6 +1204,11 @@ impl Cluster {
                     .get_mut(&neighbour)
                     .map(std::mem::take)
                     .unwrap_or_default(),
+                impulses: self
+                    .outgoing_impulses
+                    .get_mut(&neighbour)
+                    .map(std::mem::take)
+                    .unwrap_or_default(),
             };
             self.stats.ops_routed += frame.ops.len() as u64;
             self.stats.events_bytes += publish_frame(
@@ -1085,6 +1218,16 @@ impl Cluster {
             )? as u64;
         }
         Ok(())
+    }
+}
+
+/// The role an entity's owner gives its body: dynamic if it is simulated, else Fixed (a body
+/// its old owner moved itself stands still until game code here moves it).
+fn owner_role(state: &EntityState) -> BodyRole {
+    if state.body.simulated {
+        BodyRole::Dynamic
+    } else {
+        BodyRole::Fixed
     }
 }
 

@@ -124,6 +124,11 @@ pub struct ClusterConfig {
     /// Which hand-offs the cluster makes besides those game code asks for (see
     /// `crate::authority`).
     pub authority: AuthorityMode,
+    /// Contacts across the seam push both ways: a proxy of a simulated entity that a body
+    /// simulated here may touch takes part in the step as a dynamic body of the entity's mass
+    /// (see `seam_sim::coupling`). `false`: proxies stay immovable (Fixed) or infinitely heavy
+    /// (kinematic) whatever they meet. [`ProxyMode::Custom`] proxies are never coupled.
+    pub coupling: bool,
 }
 
 /// One cluster of the world, as every cluster is told it.
@@ -159,6 +164,7 @@ impl ClusterConfig {
             max_magnitude: 1.0e6,
             world: Vec::new(),
             authority: AuthorityMode::default(),
+            coupling: true,
         }
     }
 }

@@ -91,6 +91,7 @@ mod tests {
                 shape: Shape::Ball { radius: 0.3 },
                 density: 1.0,
                 ccd: false,
+                simulated: true,
             },
         }
     }

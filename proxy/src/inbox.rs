@@ -168,6 +168,7 @@ mod tests {
                 shape: Shape::Ball { radius: 0.5 },
                 density: 1.0,
                 ccd: false,
+                simulated: true,
             },
         }
     }

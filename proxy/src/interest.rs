@@ -171,6 +171,7 @@ mod tests {
                 shape,
                 density: 1.0,
                 ccd: false,
+                simulated: true,
             },
         }
     }

@@ -24,7 +24,7 @@
 //!     rotation: [0.0, 0.0, 0.0, 1.0],
 //!     linvel: [0.0; 3],
 //!     angvel: [0.0; 3],
-//!     body: BodyShape { shape: Shape::Cuboid { half_extents: [0.5; 3] }, density: 500.0, ccd: false },
+//!     body: BodyShape { shape: Shape::Cuboid { half_extents: [0.5; 3] }, density: 500.0, ccd: false, simulated: true },
 //! };
 //! clusters[0].spawn_owned(&crate_, BodyRole::Dynamic)?;
 //! for _ in 0..2 {
@@ -82,8 +82,17 @@
 //! updates; see `dead_reckoning`); `Custom`: a [`CustomProxy`] — and despawned when it is of
 //! no more interest or its owner stops listing it. Every received state is checked first
 //! (finite, within `max_magnitude`, a unit rotation, a shape with a size) whether or not it
-//! will be modelled. Contacts between a body of this cluster and a proxy are sent to the
-//! proxy's owner, which sees them among its contact events on its next tick.
+//! will be modelled. Reads of a proxy's velocity give what its owner replicated.
+//!
+//! **Contacts push across the seam** (`ClusterConfig::coupling`, on by default): before each
+//! step, a proxy of a simulated entity that a body of this cluster may touch becomes, for as
+//! long as it may, a dynamic body of the entity's own mass moving with the replicated velocity
+//! (see `seam_sim::coupling`). The owner's world does the same with its proxy of this cluster's
+//! body, so each world solves the contact from the same bodies and keeps its own body's share:
+//! a light ball bounces off a heavy crate and the crate takes its momentum, in the step they
+//! meet, with nothing routed. Contacts between a body of this cluster and a proxy are also
+//! sent to the proxy's owner, with their impulse and normal; each cluster surfaces a contact
+//! once, whether it saw it itself or first heard of it (see `contact_merge`).
 //!
 //! **Scenery** — terrain, floors, walls — is loaded by every cluster itself
 //! ([`Cluster::spawn_scenery`]): a Fixed body owned by no cluster (`ClusterId::SCENERY`),
@@ -192,6 +201,8 @@
 //! - `cluster` — [`Cluster`]: the tick, reconcile, routing, contacts, publish.
 //! - `config` — [`ClusterConfig`], [`Region`], [`WorldCluster`], [`ProxyMode`], [`CustomProxy`].
 //! - `dead_reckoning` — where a kinematic proxy aims between frames.
+//! - `contact_merge` — each contact once per side.
+//! - `settle` — contacts across the seam end equal and opposite: momentum conserved.
 //! - `inbox` — frames by sender and step count, for lock-step.
 //! - `interest` — which neighbour entities are modelled: [`extent`] against the region and
 //!   the room around this cluster's own bodies.
@@ -211,11 +222,13 @@ mod channels;
 mod clock;
 mod cluster;
 mod config;
+mod contact_merge;
 mod dead_reckoning;
 mod error;
 mod inbox;
 mod interest;
 mod lockstep;
+mod settle;
 mod stats;
 
 pub use authority::{
@@ -225,7 +238,9 @@ pub use channels::{physics_events, replication};
 pub use clock::{OpTiming, monotonic_ns};
 pub use cluster::{Cluster, MAX_OP_TIMINGS, NeighbourStatus};
 pub use config::{ClusterConfig, CustomProxy, ProxyMode, Region, WorldCluster};
+pub use contact_merge::MERGE_WINDOW_TICKS;
 pub use error::ClusterError;
 pub use interest::extent;
 pub use lockstep::lockstep_round;
+pub use settle::HALF_WAITS_TICKS;
 pub use stats::ClusterStats;

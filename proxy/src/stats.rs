@@ -21,8 +21,28 @@ pub struct ClusterStats {
     pub ops_dropped_absurd: u64,
     /// Contacts between a local body and a proxy, reported to the proxy's owner.
     pub contacts_sent: u64,
-    /// Contacts reported by neighbours, added to this cluster's contact events.
+    /// Contacts reported by neighbours.
     pub contacts_received: u64,
+    /// Contacts seen twice — in this world and in a neighbour's report — and surfaced once
+    /// (see `crate::contact_merge`): the second copies, dropped.
+    pub contacts_merged: u64,
+    /// Contacts across the seam whose impulse on a body of this cluster was sent to the other
+    /// body's owner, to settle (see `crate::settle`).
+    pub seam_impulses_sent: u64,
+    /// Such reports received from neighbours.
+    pub seam_impulses_received: u64,
+    /// Of those, reports naming a body this cluster does not simulate (handed on since) or
+    /// carrying a value that is not finite or beyond `ClusterConfig::max_magnitude`: ignored.
+    pub seam_impulses_dropped: u64,
+    /// Settling impulses given to this cluster's bodies (one per body and tick).
+    pub seam_impulses_settled: u64,
+    /// Pairs whose two worlds' impulses disagreed too much to be one contact: left unsettled.
+    pub seam_impulses_disagreed: u64,
+    /// Impulses (this world's or a report) whose other half did not come in time: left.
+    pub seam_impulses_unmatched: u64,
+    /// Times a proxy was made a dynamic body of its entity's mass because a body simulated
+    /// here could touch it (see `seam_sim::coupling`).
+    pub proxies_coupled: u64,
     /// Entities handed to another cluster.
     pub handoffs_out: u64,
     /// Entities taken over from another cluster.

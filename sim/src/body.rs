@@ -17,6 +17,10 @@ pub(crate) struct Entry {
     pub(crate) body: RigidBodyHandle,
     pub(crate) collider: ColliderHandle,
     pub(crate) info: EntityInfo,
+    /// The linear and angular velocity the entity last came with (spawned or replicated): what
+    /// reads of a proxy return, whatever its body does (a Fixed body has none; a kinematic one
+    /// has the dead-reckoning velocity).
+    pub(crate) replicated: ([f32; 3], [f32; 3]),
 }
 
 /// Contacts that produce events: Rapier's default (anything with a dynamic body) plus
@@ -78,6 +82,7 @@ pub(crate) fn insert(
             role,
             body: state.body,
         },
+        replicated: (state.linvel, state.angvel),
     };
     stale.push((entry.body, entry.collider));
     entry
@@ -127,10 +132,11 @@ pub(crate) fn refresh_bounds(world: &mut PhysicsWorld, stale: &mut StaleBounds) 
 pub(crate) fn apply_state(
     world: &mut PhysicsWorld,
     stale: &mut StaleBounds,
-    entry: &Entry,
+    entry: &mut Entry,
     state: &EntityState,
     dt: f32,
 ) {
+    entry.replicated = (state.linvel, state.angvel);
     let target = pose_of(state.position, state.rotation);
     let linvel = Vector::from_array(state.linvel);
     let angvel = Vector::from_array(state.angvel);

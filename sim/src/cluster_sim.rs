@@ -4,6 +4,7 @@ use rapier3d::prelude::*;
 
 use crate::body::{self, Entry, StaleBounds};
 use crate::contacts::{ContactCollector, ContactEvent};
+use crate::coupling::{self, CouplingChanges, SeamImpulse};
 use crate::error::SimError;
 use crate::handle::{Joints, PhysicsHandle, TickContext, WriteRouter};
 use crate::validate;
@@ -160,6 +161,12 @@ impl ClusterSim {
         &self.contacts
     }
 
+    /// Keeps only the contacts of the last step that `keep` says to (the proxy layer drops a
+    /// contact it has already surfaced from a neighbour's report).
+    pub fn retain_contacts(&mut self, keep: impl FnMut(&ContactEvent) -> bool) {
+        self.contacts.retain(keep);
+    }
+
     /// Adds contact events that happened elsewhere (a neighbour's body touching this cluster's
     /// proxy there) to those of the last step, so user code sees them this tick.
     pub fn add_contacts(&mut self, events: impl IntoIterator<Item = ContactEvent>) {
@@ -172,7 +179,12 @@ impl ClusterSim {
         if self.entities.contains_key(&state.id) {
             return Err(SimError::DuplicateEntity(state.id));
         }
-        let entry = body::insert(&mut self.world, &mut self.stale, state, role);
+        let mut state = *state;
+        if state.cluster_id == self.config.cluster_id {
+            // What its neighbours are told of how it moves.
+            state.body.simulated = role == BodyRole::Dynamic;
+        }
+        let entry = body::insert(&mut self.world, &mut self.stale, &state, role);
         self.entities.insert(state.id, entry);
         Ok(())
     }
@@ -189,10 +201,16 @@ impl ClusterSim {
         Ok(state)
     }
 
-    /// The entity's current state, as its replication would carry it.
+    /// The entity's current state, as its replication would carry it. For a proxy, the pose
+    /// is where its body is and the velocities are the ones its owner replicated last (a Fixed
+    /// body has none of its own; a kinematic one has its dead-reckoning velocity).
     pub fn state(&self, id: EntityId) -> Option<EntityState> {
         let entry = self.entities.get(&id)?;
-        Some(body::state_of(&self.world, id, entry, self.tick))
+        let mut state = body::state_of(&self.world, id, entry, self.tick);
+        if entry.info.cluster_id != self.config.cluster_id {
+            (state.linvel, state.angvel) = entry.replicated;
+        }
+        Some(state)
     }
 
     /// Changes a body's role in place, keeping its handle, pose and (where Rapier allows)
@@ -205,7 +223,23 @@ impl ClusterSim {
             .ok_or(SimError::UnknownEntity(id))?;
         self.world.bodies[entry.body].set_body_type(role.rapier(), true);
         entry.info.role = role;
+        if entry.info.cluster_id == self.config.cluster_id {
+            entry.info.body.simulated = role == BodyRole::Dynamic;
+        }
         Ok(())
+    }
+
+    /// Couples the proxies that bodies simulated here may touch in the next step, and gives
+    /// the others back `rest`, their mode's role (see `crate::coupling`). Call it just before
+    /// [`Self::step`].
+    pub fn couple_proxies(&mut self, rest: BodyRole) -> CouplingChanges {
+        coupling::couple(
+            &mut self.world,
+            &mut self.entities,
+            self.config.cluster_id,
+            rest,
+            self.config.dt,
+        )
     }
 
     /// Records a new authority for the entity and the epoch it came with (the proxy layer's
@@ -220,6 +254,12 @@ impl ClusterSim {
             .entities
             .get_mut(&id)
             .ok_or(SimError::UnknownEntity(id))?;
+        let me = self.config.cluster_id;
+        if entry.info.cluster_id == me && cluster_id != me {
+            // Handed away: reads of the proxy it becomes give the motion it left with.
+            let body = &self.world.bodies[entry.body];
+            entry.replicated = (body.linvel().to_array(), body.angvel().to_array());
+        }
         entry.info.cluster_id = cluster_id;
         entry.info.epoch = epoch;
         Ok(())
@@ -317,12 +357,48 @@ impl ClusterSim {
         self.tick = tick;
     }
 
+    /// What the contacts of the last step between bodies simulated here and coupled proxies
+    /// gave those bodies (see `crate::coupling`).
+    pub fn seam_impulses(&self) -> Vec<SeamImpulse> {
+        coupling::seam_impulses(&self.world, &self.entities, self.config.cluster_id)
+    }
+
     /// Advances the world by one step and collects the contacts that started or stopped.
     pub fn step(&mut self) {
         // The step brings every moved body's bounds up to date itself.
         self.stale.clear();
         self.world.step_with_events(&(), &self.collector);
         self.collector.drain_into(&mut self.contacts);
+        for contact in &mut self.contacts {
+            if contact.started {
+                read_impulse(&self.world, &self.entities, contact);
+            }
+        }
         self.tick += 1;
+    }
+}
+
+/// Fills in the impulse and normal of a contact that started in the last step, from the
+/// solver's contact pair.
+fn read_impulse(
+    world: &PhysicsWorld,
+    entities: &IdMap<EntityId, Entry>,
+    contact: &mut ContactEvent,
+) {
+    let (Some(a), Some(b)) = (entities.get(&contact.a), entities.get(&contact.b)) else {
+        return;
+    };
+    let Some(pair) = world.contact_pair(a.collider, b.collider) else {
+        return;
+    };
+    // Rapier's impulse and normal point from its first collider to its second.
+    let sign = if pair.collider1 == a.collider {
+        1.0
+    } else {
+        -1.0
+    };
+    contact.impulse = (pair.total_impulse() * sign).to_array();
+    if let Some(manifold) = pair.manifolds().first() {
+        contact.normal = (manifold.data.normal * sign).to_array();
     }
 }

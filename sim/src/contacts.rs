@@ -4,10 +4,10 @@ use std::sync::Mutex;
 
 use rapier3d::prelude::*;
 
-use crate::wire::EntityId;
+use crate::wire::{ClusterId, EntityId};
 
 /// A contact between two entities that started or stopped during a step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactEvent {
     /// One entity of the pair.
     pub a: EntityId,
@@ -15,6 +15,29 @@ pub struct ContactEvent {
     pub b: EntityId,
     /// `true` when the contact started, `false` when it stopped.
     pub started: bool,
+    /// The impulse the contact gave `b` in the step it started, N·s (`a` got its opposite);
+    /// zero for a contact that stopped, or one that touched without pushing.
+    pub impulse: [f32; 3],
+    /// The contact normal, pointing from `a` to `b` (zero where the shapes no longer meet).
+    pub normal: [f32; 3],
+    /// `None`: seen in this cluster's world. `Some(c)`: reported by cluster `c`, whose world
+    /// saw it (a contact with one of this cluster's entities there that this world does not
+    /// model both sides of; where it models both, its own event stands for the pair).
+    pub reported_by: Option<ClusterId>,
+}
+
+impl ContactEvent {
+    /// A contact seen in this world, before the step's impulses are read.
+    pub(crate) fn seen(a: EntityId, b: EntityId, started: bool) -> Self {
+        Self {
+            a,
+            b,
+            started,
+            impulse: [0.0; 3],
+            normal: [0.0; 3],
+            reported_by: None,
+        }
+    }
 }
 
 /// Collects Rapier's collision events during a step. Rapier calls the handler through `&self`,
@@ -49,11 +72,7 @@ impl EventHandler for ContactCollector {
         if let (Some(a), Some(b)) = (entity(h1), entity(h2))
             && let Ok(mut events) = self.events.lock()
         {
-            events.push(ContactEvent {
-                a,
-                b,
-                started: event.started(),
-            });
+            events.push(ContactEvent::seen(a, b, event.started()));
         }
     }
 

@@ -156,6 +156,14 @@ impl PhysicsHandle<'_> {
         Ok(&self.world.bodies[entry.body])
     }
 
+    /// The velocities of an entity owned elsewhere, as its owner replicated them last.
+    fn replicated(&self, id: EntityId) -> Option<([f32; 3], [f32; 3])> {
+        self.entities
+            .get(&id)
+            .filter(|e| e.info.cluster_id != self.cluster_id)
+            .map(|e| e.replicated)
+    }
+
     /// Position of the body origin.
     pub fn translation(&self, id: EntityId) -> Result<[f32; 3], SimError> {
         Ok(self.body(id)?.translation().to_array())
@@ -166,14 +174,20 @@ impl PhysicsHandle<'_> {
         Ok(self.body(id)?.rotation().to_array())
     }
 
-    /// Linear velocity.
+    /// Linear velocity: the body's, or for a proxy the one its owner replicated last.
     pub fn linvel(&self, id: EntityId) -> Result<[f32; 3], SimError> {
-        Ok(self.body(id)?.linvel().to_array())
+        match self.replicated(id) {
+            Some((linvel, _)) => Ok(linvel),
+            None => Ok(self.body(id)?.linvel().to_array()),
+        }
     }
 
-    /// Angular velocity.
+    /// Angular velocity: the body's, or for a proxy the one its owner replicated last.
     pub fn angvel(&self, id: EntityId) -> Result<[f32; 3], SimError> {
-        Ok(self.body(id)?.angvel().to_array())
+        match self.replicated(id) {
+            Some((_, angvel)) => Ok(angvel),
+            None => Ok(self.body(id)?.angvel().to_array()),
+        }
     }
 
     /// The first body hit by the ray from `origin` along `direction`, up to `max_toi` times the

@@ -19,7 +19,7 @@
 //!         rotation: [0.0, 0.0, 0.0, 1.0],
 //!         linvel: [0.0; 3],
 //!         angvel: [0.0; 3],
-//!         body: BodyShape { shape: Shape::Ball { radius: 0.5 }, density: 1.0, ccd: false },
+//!         body: BodyShape { shape: Shape::Ball { radius: 0.5 }, density: 1.0, ccd: false, simulated: true },
 //!     },
 //!     BodyRole::Dynamic,
 //! )?;
@@ -43,7 +43,10 @@
 //!   joints), and [`WriteRouter`], the hook through which the proxy layer routes writes on
 //!   entities owned elsewhere.
 //! - `body` — Rapier bodies and colliders behind entities.
-//! - `contacts` — Rapier collision events as entity pairs ([`ContactEvent`]).
+//! - `contacts` — Rapier collision events as entity pairs with impulse and normal
+//!   ([`ContactEvent`]).
+//! - [`coupling`] — proxies that meet this cluster's bodies with their entity's own mass, so a
+//!   contact across the seam pushes both ways.
 //! - `validate` — NaN, infinity, rotation and shape checks before anything reaches Rapier.
 //! - `error` — [`SimError`].
 //!
@@ -53,6 +56,7 @@
 mod body;
 mod cluster_sim;
 mod contacts;
+pub mod coupling;
 mod error;
 mod handle;
 mod validate;
@@ -60,6 +64,7 @@ pub mod wire;
 
 pub use cluster_sim::{BodyRole, ClusterSim, EntityInfo, SimConfig};
 pub use contacts::ContactEvent;
+pub use coupling::{CouplingChanges, SeamImpulse};
 pub use error::SimError;
 pub use handle::{
     JointId, JointSpec, LocalOnly, PhysicsHandle, RayHit, TickContext, WriteOutcome, WriteRouter,

@@ -23,6 +23,7 @@ fn ball(id: u128, owner: ClusterId, position: [f32; 3], radius: f32) -> EntitySt
             shape: Shape::Ball { radius },
             density: 1000.0,
             ccd: false,
+            simulated: true,
         },
     }
 }
@@ -33,6 +34,7 @@ fn cuboid(id: u128, owner: ClusterId, position: [f32; 3], half: [f32; 3]) -> Ent
             shape: Shape::Cuboid { half_extents: half },
             density: 1000.0,
             ccd: false,
+            simulated: true,
         },
         ..ball(id, owner, position, 1.0)
     }

@@ -2,7 +2,7 @@
 
 use seam_sim::wire::{
     self, BodyShape, ClusterId, ContactReport, EntityId, EntityState, PhysicsEventsFrame,
-    PhysicsOp, ReplicationFrame, RoutedOp, Shape, WIRE_VERSION, WireError,
+    PhysicsOp, ReplicationFrame, RoutedOp, SeamImpulseReport, Shape, WIRE_VERSION, WireError,
 };
 
 fn state(i: u32) -> EntityState {
@@ -28,6 +28,7 @@ fn state(i: u32) -> EntityState {
             },
             density: 1000.0,
             ccd: i.is_multiple_of(2),
+            simulated: true,
         },
     }
 }
@@ -88,6 +89,14 @@ fn events() -> PhysicsEventsFrame {
             a: target,
             b: EntityId::from_u128(4),
             started: true,
+            tick: 99,
+            impulse: [0.5, -1.0, 2.0],
+            normal: [0.0, 0.0, 1.0],
+        }],
+        impulses: vec![SeamImpulseReport {
+            own: EntityId::from_u128(5),
+            other: target,
+            impulse: [-3.0, 0.25, 0.0],
             tick: 99,
         }],
     }

@@ -253,6 +253,7 @@ pub fn ball_at(x: f32, owner: seam_sim::wire::ClusterId) -> seam_sim::wire::Enti
             shape: Shape::Ball { radius: 0.5 },
             density: 100.0,
             ccd: false,
+            simulated: true,
         },
     }
 }

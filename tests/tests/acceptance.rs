@@ -110,6 +110,7 @@ fn ball(position: [f32; 3], linvel: [f32; 3]) -> EntityState {
             shape: Shape::Ball { radius: 0.5 },
             density: 1000.0,
             ccd: false,
+            simulated: true,
         },
     }
 }
@@ -594,6 +595,7 @@ fn scenery_is_loaded_everywhere_and_never_replicated(ctx: &TestContext) {
             },
             density: 1.0,
             ccd: false,
+            simulated: true,
         },
     };
     for cluster in &mut clusters {

@@ -151,6 +151,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
             })
             .collect(),
         contacts: Vec::new(),
+        impulses: Vec::new(),
     };
     let target = mine[0].id;
     let mut expected = Tally::default();

@@ -30,6 +30,7 @@ fn plan(scene_name: &str, transport: String, rate: f64, ticks: u64) -> RunPlan {
         proxy_mode: ProxyModeArg::Fixed,
         authority: AuthorityArgs::default(),
         replication_interval: 1,
+        coupling: true,
         layers: 1,
         run_id: run::fresh_run_id(),
         node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],

@@ -44,6 +44,10 @@ pub struct Accuracy {
     pub momentum_error_max: f64,
     /// Mean of that error over the mean Σ m·|v| of the reference (unitless).
     pub momentum_error_rel: f64,
+    /// The single world's own drift on the same scale: the mean of |Σ m·v (reference) −
+    /// Σ m·v (reference, first tick)| over the mean Σ m·|v| — what gravity, floors, blasts and
+    /// new projectiles change of the total by themselves. A momentum error is judged beyond it.
+    pub momentum_drift_rel: f64,
     /// Authority flips seen, projectiles included.
     pub handoffs: u64,
     /// Of those, flips of a body that had already drifted more than
@@ -83,6 +87,9 @@ pub struct Comparison {
     acc: Accuracy,
     momentum_err_sum: f64,
     momentum_ref_sum: f64,
+    momentum_drift_sum: f64,
+    /// The reference's total momentum at the first tick observed.
+    momentum_start: Option<[f64; 3]>,
     reference_hits: BTreeMap<(EntityId, EntityId), u64>,
     split_hits: BTreeMap<(EntityId, EntityId), u64>,
     /// Last split sighting: owner, state; and the reference state then.
@@ -199,6 +206,8 @@ impl Comparison {
             acc: Accuracy::default(),
             momentum_err_sum: 0.0,
             momentum_ref_sum: 0.0,
+            momentum_drift_sum: 0.0,
+            momentum_start: None,
             reference_hits: BTreeMap::new(),
             split_hits: BTreeMap::new(),
             last: IdMap::default(),
@@ -284,8 +293,14 @@ impl Comparison {
             }
             speed_sum += m * distance(state.linvel, [0.0; 3]);
             if !seen.contains_key(&state.id) {
-                if pods.iter().any(|p| p.cluster().sim().contains(state.id)) {
+                // In transit, its momentum is the one its hand-off carries: what the old
+                // owner's proxy of it reads.
+                let carried = pods.iter().find_map(|p| p.cluster().sim().state(state.id));
+                if let Some(carried) = carried {
                     self.acc.in_transit_ticks += 1;
+                    for (p, v) in p_split.iter_mut().zip(carried.linvel) {
+                        *p += m * f64::from(v);
+                    }
                 } else {
                     self.acc.missing_entity_ticks += 1;
                 }
@@ -298,6 +313,11 @@ impl Comparison {
         self.acc.momentum_error_max = self.acc.momentum_error_max.max(error);
         self.momentum_err_sum += error;
         self.momentum_ref_sum += speed_sum;
+        let start = *self.momentum_start.get_or_insert(p_ref);
+        self.momentum_drift_sum += (0..3)
+            .map(|k| (p_ref[k] - start[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
 
         record_hits(reference, &projectiles, tick, &mut self.reference_hits);
         for pod in pods {
@@ -311,10 +331,14 @@ impl Comparison {
         let n = self.samples.max(1) as f64;
         self.acc.position_rms_m = (self.pos_sq / n).sqrt();
         self.acc.rotation_rms_deg = (self.rot_sq / n).sqrt();
-        self.acc.momentum_error_rel = if self.momentum_ref_sum > 0.0 {
-            self.momentum_err_sum / self.momentum_ref_sum
+        (self.acc.momentum_error_rel, self.acc.momentum_drift_rel) = if self.momentum_ref_sum > 0.0
+        {
+            (
+                self.momentum_err_sum / self.momentum_ref_sum,
+                self.momentum_drift_sum / self.momentum_ref_sum,
+            )
         } else {
-            0.0
+            (0.0, 0.0)
         };
         let mut matched = 0u64;
         let mut offset_sum = 0u64;

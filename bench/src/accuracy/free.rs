@@ -52,6 +52,7 @@ pub fn run_free_trial(
         proxy_mode,
         authority: settings.authority,
         replication_interval: settings.replication_interval,
+        coupling: settings.coupling,
         layers: 1,
         run_id: run_id.to_owned(),
         node_command: free.node_command.clone(),
@@ -67,6 +68,7 @@ pub fn run_free_trial(
             proxy_mode: settings.proxy_mode,
             authority: settings.authority.mode(),
             replication_interval: settings.replication_interval,
+            coupling: settings.coupling,
             ..PodSettings::new(
                 format!("local?prefix=seam_free_{}_{run_id}_", std::process::id()),
                 run_id,

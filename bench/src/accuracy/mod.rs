@@ -38,6 +38,8 @@ pub struct TrialSettings {
     pub authority: AuthorityArgs,
     /// A replication frame every this many ticks.
     pub replication_interval: u64,
+    /// Whether contacts push across the seam (see `seam_proxy::ClusterConfig::coupling`).
+    pub coupling: bool,
     /// Observation spread of every cluster, m (`None`: the scene's); see `interest`.
     pub spread: Option<f32>,
     /// `false`: every cluster proxies every neighbour entity wherever it is (no interest
@@ -70,6 +72,7 @@ impl Default for TrialSettings {
             proxy_mode: ProxyMode::Fixed,
             authority: AuthorityArgs::default(),
             replication_interval: 1,
+            coupling: true,
             spread: None,
             interest: true,
             projectile_speed: None,
@@ -179,6 +182,7 @@ pub fn run_trial(
         proxy_mode: settings.proxy_mode,
         authority: settings.authority.mode(),
         replication_interval: settings.replication_interval,
+        coupling: settings.coupling,
         ..PodSettings::new(transport, run_id)
     };
     let prefix = format!("seam_trial_{}_{run_id}_", std::process::id());
@@ -270,14 +274,15 @@ pub fn table(r: &TrialResult) -> String {
     let (s, a, c) = (&r.settings, &r.accuracy, &r.cost);
     format!(
         "seam compare: {} split ({}) against one world, {} ticks\n\
-         settings: {} proxies, {} authority, replication every {} tick(s), spread {}, \
-         projectiles {}, CCD {}\n\n\
+         settings: {} proxies, contact coupling {}, {} authority, replication every {} tick(s), \
+         spread {}, projectiles {}, CCD {}\n\n\
          accuracy\n\
          \x20 position error       RMS {:.4} m, max {:.4} m (over {}){}\n\
          \x20 orientation error    RMS {:.3}°, max {:.3}°\n\
          \x20 projectile hits      {} in the single world, {} split, {} matched: recall {}, \
          precision {}, mean tick offset {:.2}\n\
-         \x20 momentum error       max {:.4} kg·m/s, mean {:.5} of Σm|v|\n\
+         \x20 momentum error       max {:.4} kg·m/s, mean {:.5} of Σm|v| (the single world's own \
+         drift: {:.5})\n\
          \x20 hand-offs            {} ({} of bodies already off track, not judged): largest jump \
          {:.5} m, {:.5} m/s\n\
          \x20 ownership            {} body-ticks with two owners, {} lost, {} in transit \
@@ -294,6 +299,7 @@ pub fn table(r: &TrialResult) -> String {
         r.transport,
         r.ticks,
         mode_name(s.proxy_mode),
+        if s.coupling { "on" } else { "off" },
         s.authority.label(),
         s.replication_interval,
         if s.interest {
@@ -324,6 +330,7 @@ pub fn table(r: &TrialResult) -> String {
         a.hit_tick_offset_mean,
         a.momentum_error_max,
         a.momentum_error_rel,
+        a.momentum_drift_rel,
         a.handoffs,
         a.handoffs_untracked,
         a.handoff_jump_position_m,
@@ -363,6 +370,7 @@ pub fn markdown(results: &[TrialResult]) -> String {
         ("escaped", Right),
         ("hit recall", Right),
         ("precision", Right),
+        ("momentum error (drift)", Right),
         ("hand-offs (judged)", Right),
         ("largest jump m, m/s", Right),
         ("CPU/tick summed ms", Right),
@@ -373,7 +381,11 @@ pub fn markdown(results: &[TrialResult]) -> String {
         let (s, a, c) = (&r.settings, &r.accuracy, &r.cost);
         table.row(vec![
             format!("`{}`", r.scene),
-            mode_name(s.proxy_mode).to_owned(),
+            if s.coupling {
+                mode_name(s.proxy_mode).to_owned()
+            } else {
+                format!("{}, uncoupled", mode_name(s.proxy_mode))
+            },
             s.authority.label(),
             s.replication_interval.to_string(),
             if s.interest {
@@ -386,6 +398,7 @@ pub fn markdown(results: &[TrialResult]) -> String {
             a.escaped_bodies.to_string(),
             ratio(a.hit_recall),
             ratio(a.hit_precision),
+            format!("{:.4} ({:.4})", a.momentum_error_rel, a.momentum_drift_rel),
             format!("{} ({})", a.handoffs, a.handoffs - a.handoffs_untracked),
             format!(
                 "{:.4}, {:.3}",

@@ -177,6 +177,7 @@ pub fn run(
         proxy_mode: ProxyModeArg::Fixed,
         authority: AuthorityArgs::default(),
         replication_interval: 1,
+        coupling: true,
         layers: plan.layers,
         run_id: run_id.clone(),
         node_command: plan.node_command.clone(),

@@ -186,6 +186,11 @@ pub struct NodeArgs {
     /// A replication frame every this many ticks.
     #[arg(long, default_value_t = 1)]
     pub replication_interval: u64,
+    /// Contacts do not push across the seam: proxies stay immovable (Fixed) or infinitely
+    /// heavy (kinematic) whatever they meet, as before contact coupling (see
+    /// `seam_sim::coupling`). For measuring what coupling buys.
+    #[arg(long)]
+    pub no_coupling: bool,
     /// Stack this many copies of every grid entity along y (see `Scene::stacked`): the same
     /// scene with more entities.
     #[arg(long, default_value_t = 1)]
@@ -250,6 +255,7 @@ pub fn run_node(
         proxy_mode: args.proxy_mode.into(),
         authority: args.authority.mode(),
         replication_interval: args.replication_interval,
+        coupling: !args.no_coupling,
         neighbour_timeout_ticks: args.neighbour_timeout_ticks,
         rejoin: args.rejoin,
         ..PodSettings::new(&args.transport, &args.run_id)

@@ -148,6 +148,7 @@ fn measure(
         published_ns: 0,
         ops: Vec::with_capacity(batch),
         contacts: Vec::new(),
+        impulses: Vec::new(),
     };
     let mut started = Instant::now();
     for round in 0..plan.warmup + plan.rounds {

@@ -35,6 +35,7 @@ pub fn run_owner(url: &str, events: &str, ack: &str, wait: WaitMode) -> Result<(
                 shape: Shape::Ball { radius: 0.5 },
                 density: 1000.0,
                 ccd: false,
+                simulated: true,
             },
         },
         BodyRole::Dynamic,

@@ -54,6 +54,8 @@ pub struct PodSettings {
     pub authority: AuthorityMode,
     /// A replication frame every this many ticks.
     pub replication_interval: u64,
+    /// Whether contacts push across the seam (see `ClusterConfig::coupling`).
+    pub coupling: bool,
     /// Ticks of silence after which a neighbour is taken for dead (0: never; see
     /// `ClusterConfig::neighbour_timeout_ticks`).
     pub neighbour_timeout_ticks: u64,
@@ -72,6 +74,7 @@ impl PodSettings {
             proxy_mode: ProxyMode::Fixed,
             authority: AuthorityMode::spatial(),
             replication_interval: 1,
+            coupling: true,
             neighbour_timeout_ticks: 60,
             rejoin: false,
         }
@@ -245,6 +248,7 @@ impl Pod {
         config.proxy_mode = settings.proxy_mode;
         config.authority = settings.authority;
         config.replication_interval = settings.replication_interval.max(1);
+        config.coupling = settings.coupling;
         config.dt = scene.dt;
         config.gravity = scene.gravity;
         config.max_linear_velocity = scene.max_speed;
@@ -258,6 +262,7 @@ impl Pod {
                 shape: wire_shape(&entity.shape),
                 density: entity.mass() / entity.shape.volume(),
                 ccd: entity.ccd,
+                simulated: true,
             };
             let grid = entity.grid.unwrap_or(scene::Grid {
                 count: [1, 1, 1],
@@ -558,6 +563,7 @@ impl Pod {
                             shape: wire_shape(&shape),
                             density: mass / shape.volume(),
                             ccd: *ccd,
+                            simulated: true,
                         },
                     };
                     match self.cluster.spawn_owned(&state, BodyRole::Dynamic) {

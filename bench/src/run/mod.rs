@@ -43,6 +43,8 @@ pub struct RunPlan {
     pub authority: AuthorityArgs,
     /// A replication frame every this many ticks.
     pub replication_interval: u64,
+    /// Whether contacts push across the seam (see `ClusterConfig::coupling`).
+    pub coupling: bool,
     /// Copies of every grid entity stacked along y.
     pub layers: u32,
     /// Shared by the pods of this run.
@@ -124,6 +126,9 @@ pub fn spawn_pod(
         .stderr(stderr);
     if launch.rejoin {
         command.arg("--rejoin");
+    }
+    if !plan.coupling {
+        command.arg("--no-coupling");
     }
     let mut child = command
         .spawn()

@@ -96,6 +96,8 @@ pub struct RunReport {
     pub proxy_mode: ProxyModeArg,
     /// A replication frame every this many ticks.
     pub replication_interval: u64,
+    /// Whether contacts pushed across the seam (see `ClusterConfig::coupling`).
+    pub coupling: bool,
     /// Seconds from launch to the last pod's exit.
     pub wall_s: f64,
     /// One entry per pod.
@@ -163,6 +165,7 @@ impl RunReport {
             rate_hz: plan.rate,
             proxy_mode: plan.proxy_mode,
             replication_interval: plan.replication_interval,
+            coupling: plan.coupling,
             wall_s,
             pods,
             totals,
@@ -182,13 +185,14 @@ pub fn table(report: &RunReport) -> String {
     };
     let mut out = format!(
         "seam run: {} ({} entities) on {}, {} pods, {ticks} ticks {rate}, {:?} proxies, \
-         replication every {} tick(s), {:.1} s\n\n",
+         replication every {} tick(s), coupling {}, {:.1} s\n\n",
         report.scene,
         report.entities,
         report.transport,
         report.pods.len(),
         report.proxy_mode,
         report.replication_interval,
+        if report.coupling { "on" } else { "off" },
         report.wall_s
     );
     out += &format!(

@@ -13,7 +13,7 @@ use serde::de::{DeserializeOwned, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
 
 /// The format version every frame starts with.
-pub const WIRE_VERSION: u8 = 2;
+pub const WIRE_VERSION: u8 = 3;
 
 /// A collision shape, as small as a proxy needs.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -48,6 +48,11 @@ pub struct BodyShape {
     pub density: f32,
     /// Continuous collision detection, for fast bodies that must not tunnel through thin ones.
     pub ccd: bool,
+    /// Whether its authority simulates it as a dynamic body (`false` for Fixed and kinematic
+    /// bodies its owner moves itself). Only a proxy of a simulated entity takes part in
+    /// contacts with the entity's mass (see `seam_sim::coupling`); an adopter or new owner
+    /// gives the body back the role it had.
+    pub simulated: bool,
 }
 
 /// One entity's replicated state: the spine every neighbour receives. Its wire form is in
@@ -212,7 +217,7 @@ pub struct RoutedOp {
 }
 
 /// A contact that started or stopped between two entities.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ContactReport {
     /// One entity of the pair.
     pub a: EntityId,
@@ -221,6 +226,26 @@ pub struct ContactReport {
     /// `true` when the contact started, `false` when it stopped.
     pub started: bool,
     /// The reporting cluster's tick whose step saw the change.
+    pub tick: u64,
+    /// The impulse the contact gave `b` in the step it started, N·s (see
+    /// `seam_sim::ContactEvent`).
+    pub impulse: [f32; 3],
+    /// The contact normal, from `a` to `b`.
+    pub normal: [f32; 3],
+}
+
+/// What a contact across the seam gave the sender's body in one step: the receiver, which owns
+/// the other body, keeps half of the difference between the two worlds' impulses (see
+/// `seam_proxy`'s `settle`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SeamImpulseReport {
+    /// The sender's body.
+    pub own: EntityId,
+    /// The receiver's entity it touched (a coupled proxy in the sender's world).
+    pub other: EntityId,
+    /// The impulse the contact gave `own`, N·s.
+    pub impulse: [f32; 3],
+    /// The sender's tick whose step it was.
     pub tick: u64,
 }
 
@@ -252,6 +277,10 @@ pub struct PhysicsEventsFrame {
     /// Contacts between the sender's bodies and its proxies of the destination's entities.
     #[serde(deserialize_with = "grow_as_decoded")]
     pub contacts: Vec<ContactReport>,
+    /// What touching contacts between the sender's bodies and its coupled proxies of the
+    /// destination's entities gave the sender's bodies in its last step.
+    #[serde(deserialize_with = "grow_as_decoded")]
+    pub impulses: Vec<SeamImpulseReport>,
 }
 
 /// Why bytes are not a frame.
@@ -308,8 +337,9 @@ where
 }
 
 /// Most bytes one [`EntityState`] can take: the 84-byte block with its length byte, a 10-byte
-/// varint tick, the largest shape (tag and three floats), density and CCD flag.
-pub const MAX_STATE_LEN: usize = 1 + 84 + 10 + 5 + 1 + 12 + 4 + 1;
+/// varint tick, a 5-byte varint epoch, the largest shape (tag and three floats), density, and
+/// the CCD and simulated flags.
+pub const MAX_STATE_LEN: usize = 1 + 84 + 10 + 5 + 1 + 12 + 4 + 1 + 1;
 
 impl ReplicationFrame {
     /// An upper bound of the encoded size, without encoding: size a transport buffer with it

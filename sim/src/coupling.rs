@@ -1,0 +1,218 @@
+//! Contacts across the seam: proxies that meet this cluster's bodies with the entity's own mass.
+//!
+//! Between contacts a proxy is what its mode makes it: a Fixed body standing at the replicated
+//! pose, or a kinematic one moving along its dead-reckoned path. To a body this cluster
+//! simulates, either is infinitely heavy: a ball stops dead on it, and a kinematic proxy of a
+//! 1 kg ball shoves a 20 kg crate as if it weighed nothing less than a wall.
+//!
+//! > Before each step, every proxy of a **simulated** entity (dynamic at its owner) that a body
+//! > this cluster simulates may touch during the step — directly, or through other such
+//! > proxies — becomes a **dynamic body of the entity's own mass**, moving with the replicated
+//! > velocity. Once nothing of this cluster's can reach it, it goes back to its mode's role,
+//! > where it is.
+//!
+//! The owner's world does the same with its proxy of this cluster's body, so each world solves
+//! the contact from the same two bodies and keeps its own body's share: the ball bounces off a
+//! crate of the crate's mass here, the crate takes the ball's momentum there. Nothing is
+//! routed, so the push lands in the step the bodies meet, not a frame later. A coupled proxy
+//! is simulated between replication frames and set to each frame's state when it comes; a
+//! proxy of an entity its owner moves itself (a Fixed floor, a kinematic door) is never coupled:
+//! it is as immovable here as it is there.
+//!
+//! "May touch" is judged on boxes: the proxy's box swept by its replicated velocity over a step,
+//! against each simulated body's box swept by its velocity, both grown by [`REACH_MARGIN_M`].
+
+use rapier3d::prelude::*;
+
+use crate::body::Entry;
+use crate::cluster_sim::BodyRole;
+use crate::wire::{ClusterId, EntityId, IdMap};
+
+/// How much closer than touching two swept boxes must come for a proxy to be coupled, metres:
+/// room for Rapier's contact prediction and for a step's worth of gravity.
+pub const REACH_MARGIN_M: f32 = 0.05;
+
+/// What one coupling pass changed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CouplingChanges {
+    /// Proxies made dynamic for this step.
+    pub coupled: u32,
+    /// Proxies given back their mode's role.
+    pub released: u32,
+    /// Proxies dynamic for this step, newly or still.
+    pub dynamic: u32,
+}
+
+/// The box a body's collider covers at the body's pose now (a body moved since the last step
+/// has a collider that does not know it yet), swept by `velocity` over `dt` and grown by
+/// `margin`.
+fn swept_box(
+    body: &RigidBody,
+    collider: &Collider,
+    velocity: Vector,
+    dt: f32,
+    margin: f32,
+) -> Aabb {
+    let now = collider.shape().compute_aabb(body.position());
+    let moved = Aabb::new(now.mins + velocity * dt, now.maxs + velocity * dt);
+    now.merged(&moved).loosened(margin)
+}
+
+/// Makes the proxies that bodies simulated here may touch this step dynamic, and the others
+/// `rest` (their mode's role), as the module says. `me` is this cluster.
+pub(crate) fn couple(
+    world: &mut PhysicsWorld,
+    entities: &mut IdMap<EntityId, Entry>,
+    me: ClusterId,
+    rest: BodyRole,
+    dt: f32,
+) -> CouplingChanges {
+    let is_proxy = |e: &Entry| {
+        e.info.cluster_id != me && e.info.cluster_id != ClusterId::SCENERY && e.info.body.simulated
+    };
+    // The fastest body simulated here bounds how far a query must look around a proxy.
+    let mut fastest = 0.0f32;
+    let mut any_simulated = false;
+    for entry in entities.values() {
+        if entry.info.cluster_id == me && entry.info.role == BodyRole::Dynamic {
+            any_simulated = true;
+            fastest = fastest.max(world.bodies[entry.body].linvel().length());
+        }
+    }
+    let mut proxies: Vec<(usize, Aabb)> = Vec::new();
+    for (index, (_, entry)) in entities.iter().enumerate() {
+        if !is_proxy(entry) {
+            continue;
+        }
+        let velocity = Vector::from_array(entry.replicated.0);
+        let (body, collider) = (&world.bodies[entry.body], &world.colliders[entry.collider]);
+        proxies.push((
+            index,
+            swept_box(body, collider, velocity, dt, REACH_MARGIN_M),
+        ));
+    }
+    let mut dynamic = vec![false; proxies.len()];
+    if any_simulated && !proxies.is_empty() {
+        // The query structure is left as the last step made it (refreshing it here would
+        // change how the next step pairs bodies, and so its result): its boxes are where
+        // bodies were at the start of that step, so the search looks a step further.
+        let simulated_here = |collider: &Collider| {
+            entities
+                .get(&EntityId::from_u128(collider.user_data))
+                .is_some_and(|e| e.info.cluster_id == me && e.info.role == BodyRole::Dynamic)
+        };
+        let mut queue = Vec::new();
+        for (slot, (_, reach)) in proxies.iter().enumerate() {
+            let look = reach.loosened(2.0 * fastest * dt);
+            let touched = world
+                .intersect_aabb_conservative(look, QueryFilter::only_dynamic())
+                .any(|(_, collider)| {
+                    let Some(body) = collider.parent().and_then(|p| world.bodies.get(p)) else {
+                        return false;
+                    };
+                    simulated_here(collider)
+                        && swept_box(body, collider, body.linvel(), dt, 0.0).intersects(reach)
+                });
+            if touched {
+                dynamic[slot] = true;
+                queue.push(slot);
+            }
+        }
+        // Through proxies: what a coupled proxy may touch is coupled too, so a push passes
+        // down a row of the neighbour's bodies as it would in one world.
+        // Proxies moved since the last step are not where the query structure has them, so
+        // this goes through the proxies themselves (few are coupled at a time).
+        while let Some(from) = queue.pop() {
+            let reach = proxies[from].1;
+            for other in 0..proxies.len() {
+                if !dynamic[other] && proxies[other].1.intersects(&reach) {
+                    dynamic[other] = true;
+                    queue.push(other);
+                }
+            }
+        }
+    }
+    let mut changes = CouplingChanges::default();
+    for (slot, &(index, _)) in proxies.iter().enumerate() {
+        let (_, entry) = entities
+            .get_index_mut(index)
+            .expect("proxy indices come from this map");
+        let want = if dynamic[slot] {
+            BodyRole::Dynamic
+        } else {
+            rest
+        };
+        if dynamic[slot] {
+            changes.dynamic += 1;
+        }
+        if entry.info.role == want {
+            continue;
+        }
+        let body = &mut world.bodies[entry.body];
+        body.set_body_type(want.rapier(), true);
+        if want == BodyRole::Dynamic {
+            // It meets this cluster's bodies with the motion its owner gave it, not the
+            // standing still of a Fixed body or the catching up of a dead-reckoned one.
+            body.set_linvel(Vector::from_array(entry.replicated.0), true);
+            body.set_angvel(Vector::from_array(entry.replicated.1), true);
+            changes.coupled += 1;
+        } else {
+            changes.released += 1;
+        }
+        entry.info.role = want;
+    }
+    changes
+}
+
+/// What a contact between a body simulated here and a coupled proxy did to the body in the
+/// last step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SeamImpulse {
+    /// The body simulated here.
+    pub own: EntityId,
+    /// The proxy (of an entity owned elsewhere).
+    pub proxy: EntityId,
+    /// The impulse the contact gave `own`, N·s.
+    pub impulse: [f32; 3],
+}
+
+/// The impulses of the last step between bodies simulated here and coupled proxies, one per
+/// touching pair.
+pub(crate) fn seam_impulses(
+    world: &PhysicsWorld,
+    entities: &IdMap<EntityId, Entry>,
+    me: ClusterId,
+) -> Vec<SeamImpulse> {
+    let mut out = Vec::new();
+    for (&proxy, entry) in entities {
+        if entry.info.cluster_id == me || entry.info.role != BodyRole::Dynamic {
+            continue;
+        }
+        for pair in world.contact_pairs_with(entry.collider) {
+            if !pair.has_any_active_contact() {
+                continue;
+            }
+            let (other, sign) = if pair.collider1 == entry.collider {
+                // Rapier's impulse pushes its second collider: here, the other body.
+                (pair.collider2, 1.0)
+            } else {
+                (pair.collider1, -1.0)
+            };
+            let Some(collider) = world.colliders.get(other) else {
+                continue;
+            };
+            let own = EntityId::from_u128(collider.user_data);
+            let simulated_here = entities
+                .get(&own)
+                .is_some_and(|e| e.info.cluster_id == me && e.info.role == BodyRole::Dynamic);
+            if simulated_here {
+                out.push(SeamImpulse {
+                    own,
+                    proxy,
+                    impulse: (pair.total_impulse() * sign).to_array(),
+                });
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,250 @@
+//! Contacts across the seam (see `seam_sim::coupling`): a shot owned by one cluster hits a crate
+//! owned by the other, two real Rapier worlds in lock-step on the in-process transport, against
+//! one world holding both. With coupling, the crate takes the shot's momentum and the shot
+//! meets the crate's mass, in both proxy modes; without it, the crate never moves. Each world
+//! sees the contact once, with its impulse and normal, and reads of a proxy give its owner's
+//! velocity.
+
+use std::time::Duration;
+
+use seam_proxy::{Cluster, ClusterConfig, ProxyMode, lockstep_round};
+use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+use seam_sim::{BodyRole, ClusterSim, ContactEvent, LocalOnly, SimConfig};
+
+const TIMEOUT: Duration = Duration::from_secs(10);
+const ROUNDS: usize = 30;
+
+fn body(id: EntityId, owner: ClusterId, x: f32, vx: f32, shape: Shape, mass: f32) -> EntityState {
+    let volume = match shape {
+        Shape::Ball { radius } => 4.0 / 3.0 * std::f32::consts::PI * radius.powi(3),
+        Shape::Cuboid {
+            half_extents: [a, b, c],
+        } => 8.0 * a * b * c,
+        Shape::Capsule { .. } => unreachable!("not used here"),
+    };
+    EntityState {
+        id,
+        cluster_id: owner,
+        tick: 0,
+        epoch: 0,
+        position: [x, 0.0, 0.0],
+        rotation: [0.0, 0.0, 0.0, 1.0],
+        linvel: [vx, 0.0, 0.0],
+        angvel: [0.0; 3],
+        body: BodyShape {
+            shape,
+            density: mass / volume,
+            ccd: true,
+            simulated: true,
+        },
+    }
+}
+
+/// A 1 kg ball at 200 m/s (CCD) fired at a 100 kg crate 20 m away, no gravity.
+struct Shot {
+    ball: EntityId,
+    crate_: EntityId,
+}
+
+impl Shot {
+    fn new() -> Self {
+        Self {
+            ball: EntityId::random(),
+            crate_: EntityId::random(),
+        }
+    }
+
+    fn ball(&self, owner: ClusterId) -> EntityState {
+        let shape = Shape::Ball { radius: 0.1 };
+        body(self.ball, owner, -20.0, 200.0, shape, 1.0)
+    }
+
+    fn crate_(&self, owner: ClusterId) -> EntityState {
+        let shape = Shape::Cuboid {
+            half_extents: [0.5; 3],
+        };
+        body(self.crate_, owner, 0.5, 0.0, shape, 100.0)
+    }
+
+    /// The ball's and the crate's x velocity after `ROUNDS` ticks of one world holding both.
+    fn one_world(&self) -> (f32, f32) {
+        let here = ClusterId::random();
+        let mut sim = ClusterSim::new(SimConfig {
+            gravity: [0.0; 3],
+            ..SimConfig::new(here)
+        });
+        sim.spawn(&self.ball(here), BodyRole::Dynamic)
+            .expect("ball");
+        sim.spawn(&self.crate_(here), BodyRole::Dynamic)
+            .expect("crate");
+        for _ in 0..ROUNDS {
+            sim.run_user(&mut LocalOnly, |_, _| ());
+            sim.step();
+        }
+        let v = |id| sim.state(id).expect("there").linvel[0];
+        (v(self.ball), v(self.crate_))
+    }
+}
+
+/// What one split run saw.
+struct Split {
+    /// The ball's x velocity at its owner (west), the crate's at its owner (east).
+    ball_v: f32,
+    crate_v: f32,
+    /// Contacts between the two, per cluster (west, east), as user code saw them.
+    contacts: [Vec<ContactEvent>; 2],
+    /// The crate's x velocity read from west's proxy of it, and the ball's from east's, in
+    /// the last round.
+    crate_read_in_west: f32,
+    ball_read_in_east_first: Option<f32>,
+    coupled: u64,
+}
+
+fn split(shot: &Shot, mode: ProxyMode, coupling: bool, test: &str) -> Split {
+    let (west, east) = (ClusterId::random(), ClusterId::random());
+    let url = format!("local?prefix=seam_{test}_{}_", std::process::id());
+    let mut clusters: Vec<Cluster> = [(west, east), (east, west)]
+        .into_iter()
+        .map(|(me, other)| {
+            let mut config = ClusterConfig::new(me, vec![other], &url);
+            config.gravity = [0.0; 3];
+            config.proxy_mode = mode;
+            config.coupling = coupling;
+            Cluster::new(config).expect("cluster")
+        })
+        .collect();
+    clusters[0]
+        .spawn_owned(&shot.ball(west), BodyRole::Dynamic)
+        .expect("ball");
+    clusters[1]
+        .spawn_owned(&shot.crate_(east), BodyRole::Dynamic)
+        .expect("crate");
+    let mut contacts: [Vec<ContactEvent>; 2] = [Vec::new(), Vec::new()];
+    let mut crate_read_in_west = f32::NAN;
+    let mut ball_read_in_east_first = None;
+    for _ in 0..ROUNDS {
+        lockstep_round(&mut clusters, TIMEOUT, |index, context, physics| {
+            contacts[index].extend(context.contacts().iter().filter(|c| {
+                [c.a, c.b] == [shot.ball, shot.crate_] || [c.a, c.b] == [shot.crate_, shot.ball]
+            }));
+            if index == 0 && context.entity(shot.crate_).is_some() {
+                crate_read_in_west = physics.linvel(shot.crate_).expect("proxy")[0];
+            }
+            if index == 1
+                && ball_read_in_east_first.is_none()
+                && context.entity(shot.ball).is_some()
+            {
+                ball_read_in_east_first = Some(physics.linvel(shot.ball).expect("proxy")[0]);
+            }
+        })
+        .expect("round");
+    }
+    let v = |cluster: &Cluster, id| cluster.sim().state(id).expect("there").linvel[0];
+    Split {
+        ball_v: v(&clusters[0], shot.ball),
+        crate_v: v(&clusters[1], shot.crate_),
+        contacts,
+        crate_read_in_west,
+        ball_read_in_east_first,
+        coupled: clusters.iter().map(|c| c.stats().proxies_coupled).sum(),
+    }
+}
+
+fn within(value: f32, truth: f32, share: f32) -> bool {
+    (value - truth).abs() <= share * truth.abs()
+}
+
+/// The crate takes the shot's momentum as in one world (within 10 %), and the shot meets the
+/// crate's mass rather than a wall: in both proxy modes.
+#[test]
+fn a_shot_moves_the_heavy_crate_it_hits_across_the_seam_as_in_one_world() {
+    let shot = Shot::new();
+    let (ball_truth, crate_truth) = shot.one_world();
+    assert!(
+        crate_truth > 1.5,
+        "one world gives the crate about 2 m/s: {crate_truth}"
+    );
+    for mode in [ProxyMode::Fixed, ProxyMode::KinematicVelocityBased] {
+        let run = split(&shot, mode, true, "shot");
+        assert!(run.coupled > 0, "{mode:?}: proxies were coupled");
+        assert!(
+            within(run.crate_v, crate_truth, 0.10),
+            "{mode:?}: crate {} m/s, one world {crate_truth} m/s",
+            run.crate_v
+        );
+        assert!(
+            within(run.ball_v, ball_truth, 0.10),
+            "{mode:?}: ball {} m/s after the hit, one world {ball_truth} m/s",
+            run.ball_v
+        );
+    }
+}
+
+/// The other side of the boundary: with coupling off the crate never moves (a Fixed proxy of
+/// the crate stops the shot dead, and the crate's owner only ever meets a proxy of the ball).
+#[test]
+fn without_coupling_the_crate_never_moves() {
+    let shot = Shot::new();
+    let run = split(&shot, ProxyMode::Fixed, false, "nocoupling");
+    assert_eq!(run.coupled, 0);
+    assert!(
+        run.crate_v.abs() < 0.05,
+        "the crate stays put without coupling: {} m/s",
+        run.crate_v
+    );
+}
+
+/// Each world sees the contact once — its own event, not also its neighbour's report of the
+/// same pair — with the impulse the crate took (its momentum change, ±10 %) and a normal along
+/// the shot.
+#[test]
+fn each_world_sees_the_contact_once_with_impulse_and_normal() {
+    let shot = Shot::new();
+    let (_, crate_truth) = shot.one_world();
+    let run = split(&shot, ProxyMode::Fixed, true, "once");
+    for (side, seen) in ["west", "east"].iter().zip(&run.contacts) {
+        let started: Vec<&ContactEvent> = seen.iter().filter(|c| c.started).collect();
+        assert_eq!(started.len(), 1, "{side} sees the hit start once: {seen:?}");
+        let hit = started[0];
+        assert_eq!(hit.reported_by, None, "{side} saw it in its own world");
+        // The impulse on `b`, whichever of the two `b` is.
+        let on_crate = if hit.b == shot.crate_ {
+            hit.impulse[0]
+        } else {
+            -hit.impulse[0]
+        };
+        assert!(
+            within(on_crate, 100.0 * crate_truth, 0.10),
+            "{side}: impulse on the crate {on_crate} N·s, one world's momentum change {}",
+            100.0 * crate_truth
+        );
+        let along = if hit.b == shot.crate_ {
+            hit.normal[0]
+        } else {
+            -hit.normal[0]
+        };
+        assert!(along > 0.9, "{side}: normal from ball to crate: {hit:?}");
+    }
+}
+
+/// Reads of a proxy give its owner's velocity: the ball's proxy in east reads 200 m/s (a Fixed
+/// body has none of its own, a kinematic one its dead-reckoning velocity), and west's proxy of
+/// the crate reads the crate's velocity after the hit.
+#[test]
+fn reads_of_a_proxy_give_the_replicated_velocity() {
+    let shot = Shot::new();
+    for mode in [ProxyMode::Fixed, ProxyMode::KinematicVelocityBased] {
+        let run = split(&shot, mode, true, "reads");
+        let ball = run.ball_read_in_east_first.expect("east models the ball");
+        assert!(
+            (ball - 200.0).abs() < 1e-3,
+            "{mode:?}: east reads the ball at {ball} m/s"
+        );
+        assert!(
+            within(run.crate_read_in_west, run.crate_v, 0.05),
+            "{mode:?}: west reads the crate at {} m/s, its owner has {} m/s",
+            run.crate_read_in_west,
+            run.crate_v
+        );
+    }
+}
