@@ -25,6 +25,11 @@ use crate::interest::{Interest, extent};
 use crate::settle::{HALF_WAITS_TICKS, Settlement};
 use crate::stats::ClusterStats;
 
+/// How long before its last tick a pod stops the policy's hand-offs (see
+/// [`Cluster::stop_policy_handoffs`]), seconds: pods on one schedule are a few ticks apart,
+/// and a pod that fell behind catches up within a fraction of this.
+pub const DRAIN_S: f64 = 0.5;
+
 /// Writes on remote-owned entities, queued by owner until the tick publishes.
 struct Outbox<'a> {
     neighbours: &'a [ClusterId],
@@ -258,6 +263,15 @@ impl Cluster {
     /// `ClusterConfig::authority` chose; see `crate::authority`).
     pub fn set_authority_policy(&mut self, policy: Box<dyn AuthorityPolicy>) {
         self.policy = Some(policy);
+    }
+
+    /// Stops asking the authority policy for hand-offs; game code's hand-offs and the return
+    /// of adopted entities still go. A pod about to stop calls it some ticks before its last
+    /// ([`DRAIN_S`] is enough on one host), so that every hand-off under way is taken before
+    /// its neighbours stop: a hand-off published in a pod's last tick reaches no one once they
+    /// have, and its entity ends owned by nobody.
+    pub fn stop_policy_handoffs(&mut self) {
+        self.policy = None;
     }
 
     /// Sets the hook that moves proxies in [`ProxyMode::Custom`].

@@ -236,7 +236,7 @@ pub use authority::{
 };
 pub use channels::{physics_events, replication};
 pub use clock::{OpTiming, monotonic_ns};
-pub use cluster::{Cluster, MAX_OP_TIMINGS, NeighbourStatus};
+pub use cluster::{Cluster, DRAIN_S, MAX_OP_TIMINGS, NeighbourStatus};
 pub use config::{ClusterConfig, CustomProxy, ProxyMode, Region, WorldCluster};
 pub use contact_merge::MERGE_WINDOW_TICKS;
 pub use error::ClusterError;

@@ -217,3 +217,42 @@ fn a_hand_back_the_dead_never_took_is_taken_back() {
     );
     assert_eq!(stats.handoffs_reclaimed, 1, "{stats:?}");
 }
+
+/// A pod about to stop stops its policy's hand-offs, so none is in flight when its neighbours
+/// stop (a hand-off published in the last tick reaches no one, and under `seam chaos` its
+/// entity ended owned by nobody). A's policy hands everything to B; after
+/// `stop_policy_handoffs` it hands nothing more, while B's policy, not stopped, still does.
+#[test]
+fn stopped_policy_handoffs_hand_nothing_more() {
+    let url = format!("local?prefix=seam_drain_{}_", std::process::id());
+    let (mut clusters, a, b) = pair(&url, |_, _, _| {});
+    clusters[0].set_authority_policy(Box::new(HandEverythingTo(b)));
+    clusters[1].set_authority_policy(Box::new(HandEverythingTo(a)));
+    clusters[0].stop_policy_handoffs();
+    let (kept, handed) = (ball_at(-2.0, a), ball_at(2.0, b));
+    clusters[0]
+        .spawn_owned(&kept, BodyRole::Dynamic)
+        .expect("spawn");
+    clusters[1]
+        .spawn_owned(&handed, BodyRole::Dynamic)
+        .expect("spawn");
+    let timeout = std::time::Duration::from_secs(10);
+    for _ in 0..5 {
+        lockstep_round(&mut clusters, timeout, |_, _, _| {}).expect("round");
+    }
+    assert_eq!(clusters[0].stats().handoffs_out, 0, "A's policy is stopped");
+    assert_eq!(clusters[1].stats().handoffs_out, 1, "B's still hands");
+    let owner = |id: EntityId| {
+        clusters
+            .iter()
+            .filter(|c| c.sim().info(id).is_some_and(|i| i.cluster_id == c.id()))
+            .map(|c| c.id())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(owner(kept.id), vec![a]);
+    assert_eq!(
+        owner(handed.id),
+        vec![a],
+        "B's ball handed to A, taken once"
+    );
+}

@@ -40,7 +40,9 @@ pub struct Accuracy {
     pub hit_precision: Option<f64>,
     /// Mean |split tick − reference tick| of matched hits.
     pub hit_tick_offset_mean: f64,
-    /// Largest |Σ m·v (split) − Σ m·v (reference)| over ticks, kg·m/s.
+    /// Largest |Σ m·v (split) − Σ m·v (reference)| over ticks, kg·m/s. A body in a hand-off
+    /// counts with the momentum its hand-off carries, and a push routed to an owner that has
+    /// not applied it yet with its impulse.
     pub momentum_error_max: f64,
     /// Mean of that error over the mean Σ m·|v| of the reference (unitless).
     pub momentum_error_rel: f64,
@@ -303,6 +305,15 @@ impl Comparison {
                     }
                 } else {
                     self.acc.missing_entity_ticks += 1;
+                }
+            }
+        }
+        // A push routed this tick reaches its owner's body in the owner's next tick: until
+        // then its momentum is in flight, as a body in transit carries its own.
+        for (id, push) in pods.iter().flat_map(|p| p.routed_pushes()) {
+            if truth.contains_key(id) {
+                for (p, j) in p_split.iter_mut().zip(push) {
+                    *p += f64::from(*j);
                 }
             }
         }

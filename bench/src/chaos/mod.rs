@@ -274,6 +274,7 @@ pub fn run(
                 pod.memory.push(MemorySample {
                     at_s: launched.elapsed().as_secs_f64(),
                     rss_kib: p.rss_kib,
+                    owned: p.entities_owned,
                 });
                 pod.latest = Some((Instant::now(), *p));
             }

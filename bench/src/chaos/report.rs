@@ -72,6 +72,8 @@ pub struct MemorySample {
     pub at_s: f64,
     /// Resident set, KiB.
     pub rss_kib: u64,
+    /// Entities the pod owned (its load: adopted bodies count).
+    pub owned: usize,
 }
 
 /// One pod's memory after warm-up.
@@ -80,10 +82,12 @@ pub struct MemoryRow {
     /// Scene cluster.
     pub pod: String,
     /// Seconds of the (last) incarnation's life taken as warm-up: the first half of it, at
-    /// least 10 s. A pod's memory steps up the first times it holds a dead or stopped
-    /// neighbour's bodies beside its own (Rapier's arenas, and shared-memory pages its
-    /// neighbours' bursts touch for the first time) and then stays; a leak grows on. So the
-    /// second half of a life is judged against the first.
+    /// least 10 s; and when the pod first holds its largest custody later than that (a dead or
+    /// stopped neighbour's bodies adopted beside its own, see `largest_custody_end`), until
+    /// that custody ends. A pod's
+    /// memory steps up the first time it holds that many bodies (Rapier's arenas, and
+    /// shared-memory pages its neighbours' bursts touch for the first time) and then stays; a
+    /// leak grows on with no more bodies. So what follows is judged against what came before.
     pub warmup_s: f64,
     /// RSS at the end of warm-up, KiB.
     pub base_kib: u64,
@@ -109,7 +113,9 @@ impl MemoryRow {
     pub fn new(pod: &str, samples: &[MemorySample]) -> Self {
         let first = samples.first().map_or(0.0, |s| s.at_s);
         let lived = samples.last().map_or(0.0, |s| s.at_s) - first;
-        let warmup_s = (lived / 2.0).max(10.0);
+        let warmup_s = (lived / 2.0)
+            .max(10.0)
+            .max(largest_custody_end(samples) - first);
         let (during, after): (Vec<&MemorySample>, Vec<&MemorySample>) =
             samples.iter().partition(|s| s.at_s - first < warmup_s);
         let after: Vec<u64> = after.iter().map(|s| s.rss_kib).collect();
@@ -146,6 +152,35 @@ impl MemoryRow {
         let (end, peak) = (self.growth_pct?, self.peak_growth_pct?);
         Some(end <= MEMORY_BOUND_PCT && peak <= MEMORY_BOUND_PCT)
     }
+}
+
+/// A pod holds a neighbour's bodies in custody when it owns more than this many times its
+/// usual load (the median of its samples).
+const CUSTODY_OVER_USUAL: f64 = 1.25;
+
+/// A custody counts as the pod's largest from this share of the most it ever owned.
+const LARGEST_LOAD_SHARE: f64 = 0.9;
+
+/// When a pod's first hold of its largest custody ended (seconds since launch): the first
+/// sample, after the pod first owned at least [`LARGEST_LOAD_SHARE`] of the most it ever owned,
+/// at which it owned less again (the last sample if it never did); 0 when the pod never held
+/// more than [`CUSTODY_OVER_USUAL`] times its usual load.
+fn largest_custody_end(samples: &[MemorySample]) -> f64 {
+    let mut loads: Vec<usize> = samples.iter().map(|s| s.owned).collect();
+    loads.sort_unstable();
+    let (Some(&usual), Some(&most)) = (loads.get(loads.len() / 2), loads.last()) else {
+        return 0.0;
+    };
+    if (most as f64) <= usual as f64 * CUSTODY_OVER_USUAL {
+        return 0.0;
+    }
+    let largest = |s: &MemorySample| s.owned as f64 >= most as f64 * LARGEST_LOAD_SHARE;
+    let reached = samples.iter().position(largest).unwrap_or(0);
+    samples[reached..]
+        .iter()
+        .find(|s| !largest(s))
+        .or(samples.last())
+        .map_or(0.0, |s| s.at_s)
 }
 
 /// Frames the pods took and refused, by reason.
@@ -504,7 +539,8 @@ pub fn table(r: &ChaosReport) -> String {
         );
     }
     out += &format!(
-        "warm-up = first half of the pod's last life; growth = end of run over end of warm-up; \
+        "warm-up = first half of the pod's last life, or until its first hold of its largest \
+         custody of a neighbour's bodies ended if that was later; growth = end of run over end of warm-up; \
          peak = largest sample after warm-up over the largest during it; each at most \
          +{MEMORY_BOUND_PCT} % (a pod whose last life was too short is not judged){}\n",
         mark(r.memory_holds())
@@ -640,4 +676,79 @@ pub fn markdown(r: &ChaosReport) -> String {
         },
     ]);
     held.render() + "\n" + &counted.render()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One sample a second for `secs` seconds: resident set and load from the closures.
+    fn life(
+        secs: u32,
+        rss: impl Fn(f64) -> u64,
+        owned: impl Fn(f64) -> usize,
+    ) -> Vec<MemorySample> {
+        (0..=secs)
+            .map(|t| {
+                let at_s = f64::from(t);
+                MemorySample {
+                    at_s,
+                    rss_kib: rss(at_s),
+                    owned: owned(at_s),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_leak_fails_and_flat_memory_holds() {
+        let leak = MemoryRow::new("p", &life(40, |t| 30_000 + (t * 200.0) as u64, |_| 600));
+        assert_eq!(leak.holds(), Some(false), "{leak:?}");
+        let flat = MemoryRow::new("p", &life(40, |_| 30_000, |_| 600));
+        assert_eq!(flat.holds(), Some(true), "{flat:?}");
+    }
+
+    #[test]
+    fn the_step_of_a_first_custody_late_in_life_is_warm_up() {
+        // Adopts a neighbour's 600 bodies from 16 s to 19 s of a 30 s life; memory steps up
+        // by 13 % and stays.
+        let custody = |t: f64| {
+            if (16.0..19.0).contains(&t) {
+                1_200
+            } else {
+                600
+            }
+        };
+        let rss = |t: f64| if t < 16.0 { 30_000 } else { 34_000 };
+        let row = MemoryRow::new("p", &life(30, rss, custody));
+        assert_eq!(row.warmup_s, 19.0);
+        assert_eq!(row.holds(), Some(true), "{row:?}");
+        // Without the custody the same step is growth.
+        let row = MemoryRow::new("p", &life(30, rss, |_| 600));
+        assert_eq!(row.warmup_s, 15.0);
+        assert_eq!(row.holds(), Some(false), "{row:?}");
+    }
+
+    #[test]
+    fn memory_that_grows_on_after_the_custody_fails() {
+        let custody = |t: f64| {
+            if (14.0..17.0).contains(&t) {
+                1_200
+            } else {
+                600
+            }
+        };
+        let rss = |t: f64| 30_000 + (t * 200.0) as u64;
+        let row = MemoryRow::new("p", &life(60, rss, custody));
+        assert_eq!(row.warmup_s, 30.0);
+        assert_eq!(row.holds(), Some(false), "{row:?}");
+    }
+
+    #[test]
+    fn a_custody_that_never_ends_is_not_judged() {
+        let custody = |t: f64| if t >= 30.0 { 1_200 } else { 600 };
+        let row = MemoryRow::new("p", &life(40, |_| 30_000, custody));
+        assert_eq!(row.warmup_s, 40.0);
+        assert_eq!(row.holds(), None, "{row:?}");
+    }
 }

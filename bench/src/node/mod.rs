@@ -5,7 +5,8 @@
 //! off the transport as they arrive, so an idle pod uses no CPU and "received" stamps mean
 //! arrival. Pods started by `seam run` share a start time on the host's monotonic clock, so
 //! their tick `k` falls at the same moment. SIGINT or SIGTERM ends the run after the current
-//! tick, and the pod still reports.
+//! tick, and the pod still reports. The last half second of a run (`seam_proxy::DRAIN_S`)
+//! starts no policy hand-offs, so that every hand-off under way is taken before the pods stop.
 //!
 //! Output: JSON lines on stdout, a [`NodeLine::Progress`] four times a second and one
 //! [`NodeLine::Report`] at the end (also written to `--metrics FILE` if given); unless
@@ -43,6 +44,10 @@ impl From<ProxyModeArg> for ProxyMode {
         }
     }
 }
+
+/// Ticks before the last that a pod running as fast as it can (rate 0, on no shared
+/// schedule) stops the policy's hand-offs.
+const DRAIN_TICKS_UNSCHEDULED: u64 = 30;
 
 /// Which hand-offs pods make, as a command-line value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
@@ -285,7 +290,19 @@ pub fn run_node(
     let mut tick_time = LatencyRecorder::default();
     let (mut overruns, mut max_lag_ns, mut proxies_peak) = (0u64, 0u64, 0usize);
     let mut last_progress = Instant::now();
+    // The last ticks start no policy hand-offs, so that those under way are taken before the
+    // neighbours stop (see `Cluster::stop_policy_handoffs`).
+    let drain_ticks = if args.rate > 0.0 {
+        (seam_proxy::DRAIN_S * args.rate).ceil() as u64
+    } else {
+        DRAIN_TICKS_UNSCHEDULED
+    };
+    let mut draining = false;
     while done < ticks && !stop.load(Ordering::Relaxed) {
+        if !draining && done + drain_ticks >= ticks {
+            pod.stop_policy_handoffs();
+            draining = true;
+        }
         let due = anchor + period_ns.map_or(0, |p| done * p);
         loop {
             let now = monotonic_ns();
@@ -356,6 +373,7 @@ pub fn run_node(
             .collect(),
         final_positions: pod.simulated_positions(),
         owned: pod.owned(),
+        proxied: pod.proxied(),
         projectiles_seen: pod.projectiles_seen(),
         rss_kib: rss_kib(),
     };

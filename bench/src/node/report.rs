@@ -3,7 +3,7 @@
 use std::fmt;
 
 use seam_proxy::ClusterStats;
-use seam_sim::wire::EntityId;
+use seam_sim::wire::{ClusterId, EntityId};
 use serde::{Deserialize, Serialize};
 
 use crate::latency::{LatencyRecorder, micros};
@@ -148,6 +148,10 @@ pub struct NodeReport {
     pub final_positions: Vec<(EntityId, [f32; 3])>,
     /// Every entity this pod owned at the end.
     pub owned: Vec<EntityId>,
+    /// Every neighbour entity this pod held a proxy of at the end, with the owner it named:
+    /// where a lost entity was last seen.
+    #[serde(default)]
+    pub proxied: Vec<(EntityId, ClusterId)>,
     /// Every projectile that was ever in this pod's world (owned or as a proxy), as seen every
     /// few ticks.
     pub projectiles_seen: Vec<EntityId>,

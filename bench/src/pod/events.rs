@@ -1,6 +1,6 @@
 //! Explosions and raycast volleys, run as user code inside a tick.
 
-use seam_sim::wire::{ClusterId, Shape};
+use seam_sim::wire::{ClusterId, EntityId, Shape};
 use seam_sim::{BodyRole, PhysicsHandle, TickContext, WriteOutcome};
 use serde::{Deserialize, Serialize};
 
@@ -28,12 +28,18 @@ pub struct EventCounts {
     pub refused: u64,
 }
 
-/// Runs the explosions and volleys of this tick.
+/// An impulse this pod's events routed to the entity's owner: momentum in flight until the
+/// owner applies it.
+pub type RoutedPush = (EntityId, [f32; 3]);
+
+/// Runs the explosions and volleys of this tick; the pushes routed to other owners are added
+/// to `routed`.
 pub(super) fn run(
     actions: &[Event],
     context: &TickContext<'_>,
     physics: &mut PhysicsHandle<'_>,
     counts: &mut EventCounts,
+    routed: &mut Vec<RoutedPush>,
 ) {
     for action in actions {
         match action {
@@ -65,7 +71,13 @@ pub(super) fn run(
                         continue;
                     }
                     let push = explosion_push(*center, *radius, *impulse, position);
-                    tally(physics.apply_impulse(entity, push), counts);
+                    tally(
+                        entity,
+                        push,
+                        physics.apply_impulse(entity, push),
+                        counts,
+                        routed,
+                    );
                 }
             }
             Event::RaycastVolley {
@@ -82,10 +94,9 @@ pub(super) fn run(
                         continue;
                     };
                     counts.ray_hits += 1;
-                    tally(
-                        physics.apply_impulse(hit.entity, unit.map(|c| c * impulse)),
-                        counts,
-                    );
+                    let push = unit.map(|c| c * impulse);
+                    let outcome = physics.apply_impulse(hit.entity, push);
+                    tally(hit.entity, push, outcome, counts, routed);
                 }
             }
             Event::Projectile { .. } | Event::Handoff { .. } => {}
@@ -93,10 +104,19 @@ pub(super) fn run(
     }
 }
 
-fn tally(outcome: Result<WriteOutcome, seam_sim::SimError>, counts: &mut EventCounts) {
+fn tally(
+    entity: EntityId,
+    push: [f32; 3],
+    outcome: Result<WriteOutcome, seam_sim::SimError>,
+    counts: &mut EventCounts,
+    routed: &mut Vec<RoutedPush>,
+) {
     match outcome {
         Ok(WriteOutcome::Applied) => counts.writes_local += 1,
-        Ok(WriteOutcome::Routed) => counts.writes_routed += 1,
+        Ok(WriteOutcome::Routed) => {
+            counts.writes_routed += 1;
+            routed.push((entity, push));
+        }
         Err(_) => counts.refused += 1,
     }
 }

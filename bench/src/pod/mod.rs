@@ -28,7 +28,7 @@ use seam_sim::BodyRole;
 use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
 
 use crate::scene::{self, Event, Scene, SceneShape};
-pub use events::EventCounts;
+pub use events::{EventCounts, RoutedPush};
 pub use ids::SceneIds;
 pub use stages::{OpStages, OpStagesSummary, TickDelaySummary};
 
@@ -115,6 +115,8 @@ pub struct Pod {
     reference: bool,
     ids: SceneIds,
     counts: EventCounts,
+    /// The pushes this pod's events routed to other owners in its last tick.
+    routed_pushes: Vec<RoutedPush>,
     stages: OpStages,
     owned_at_start: usize,
     /// Projectiles this pod fired.
@@ -323,6 +325,7 @@ impl Pod {
             reference: *part == Part::Reference,
             ids,
             counts: EventCounts::default(),
+            routed_pushes: Vec::new(),
             stages: OpStages::default(),
             owned_at_start,
             fired: Vec::new(),
@@ -330,6 +333,12 @@ impl Pod {
             projectile_hits: BTreeMap::new(),
             projectiles_seen: HashSet::new(),
         })
+    }
+
+    /// Stops the policy's hand-offs before the pod's last ticks (see
+    /// [`Cluster::stop_policy_handoffs`]).
+    pub fn stop_policy_handoffs(&mut self) {
+        self.cluster.stop_policy_handoffs();
     }
 
     /// Carries on the world's tick count from `tick` (a restarted pod; see
@@ -345,6 +354,18 @@ impl Pod {
         sim.entities()
             .filter(|(_, info)| info.cluster_id == me)
             .map(|(id, _)| id)
+            .collect()
+    }
+
+    /// Every neighbour entity this pod holds a proxy of, with the owner it names (scenery
+    /// left out).
+    pub fn proxied(&self) -> Vec<(EntityId, ClusterId)> {
+        let me = self.cluster.id();
+        self.cluster
+            .sim()
+            .entities()
+            .filter(|(_, info)| info.cluster_id != me && info.cluster_id != ClusterId::SCENERY)
+            .map(|(id, info)| (id, info.cluster_id))
             .collect()
     }
 
@@ -424,6 +445,12 @@ impl Pod {
         &self.fired
     }
 
+    /// The impulses this pod's events routed to other owners in its last tick: momentum in
+    /// flight, which in lock-step their owners apply in their next tick.
+    pub fn routed_pushes(&self) -> &[RoutedPush] {
+        &self.routed_pushes
+    }
+
     /// What the pod's events did so far.
     pub fn event_counts(&self) -> EventCounts {
         self.counts
@@ -456,9 +483,9 @@ impl Pod {
     /// One free-running tick with this tick's events.
     pub fn tick(&mut self) -> Result<(), ClusterError> {
         let actions = self.before_tick();
-        let counts = &mut self.counts;
+        let (counts, routed) = (&mut self.counts, &mut self.routed_pushes);
         self.cluster
-            .tick(|context, physics| events::run(&actions, context, physics, counts))?;
+            .tick(|context, physics| events::run(&actions, context, physics, counts, routed))?;
         self.after_tick();
         Ok(())
     }
@@ -466,9 +493,9 @@ impl Pod {
     /// One lock-step tick with this tick's events (see [`Cluster::tick_lockstep`]).
     pub fn tick_lockstep(&mut self, timeout: Duration) -> Result<(), ClusterError> {
         let actions = self.before_tick();
-        let counts = &mut self.counts;
+        let (counts, routed) = (&mut self.counts, &mut self.routed_pushes);
         self.cluster.tick_lockstep(timeout, |context, physics| {
-            events::run(&actions, context, physics, counts)
+            events::run(&actions, context, physics, counts, routed)
         })?;
         self.after_tick();
         Ok(())
@@ -522,6 +549,7 @@ impl Pod {
 
     /// Fires this tick's spawns and hand-offs; returns the events that run as user code.
     fn before_tick(&mut self) -> Vec<Event> {
+        self.routed_pushes.clear();
         let tick = self.cluster.sim().tick();
         if !self.reference {
             self.watch_ahead(tick);

@@ -2,7 +2,7 @@
 
 use std::collections::{HashMap, HashSet};
 
-use seam_sim::wire::EntityId;
+use seam_sim::wire::{ClusterId, EntityId};
 use serde::Serialize;
 
 use crate::node::NodeReport;
@@ -77,9 +77,31 @@ pub fn check(scene: &Scene, run_id: &str, reports: &[NodeReport]) -> Ownership {
         .collect();
     lost.sort();
     duplicated.sort();
+    let cluster_name = |id: ClusterId| {
+        reports
+            .iter()
+            .find(|r| r.cluster_id == id.to_string())
+            .map_or_else(|| id.to_string(), |r| r.cluster.clone())
+    };
+    let seen_as = |id: EntityId| {
+        let seen: Vec<String> = reports
+            .iter()
+            .flat_map(|r| {
+                r.proxied
+                    .iter()
+                    .filter(move |(e, _)| *e == id)
+                    .map(|&(_, owner)| format!("{}'s at {}", cluster_name(owner), r.cluster))
+            })
+            .collect();
+        if seen.is_empty() {
+            " (in no world)".to_owned()
+        } else {
+            format!(" (a proxy of {})", seen.join(", "))
+        }
+    };
     let names = lost
         .iter()
-        .map(|&id| format!("lost {}", name_of(scene, run_id, id)))
+        .map(|&id| format!("lost {}{}", name_of(scene, run_id, id), seen_as(id)))
         .chain(
             duplicated
                 .iter()
