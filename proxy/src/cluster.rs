@@ -1068,6 +1068,26 @@ impl Cluster {
         let settled = self.settlement.settle(received, tick, wait);
         self.stats.seam_impulses_disagreed += settled.disagreed;
         self.stats.seam_impulses_unmatched += settled.unmatched;
+        for &(_, other, impulse) in &settled.unanswered {
+            // A contact the other world did not see: the push it would have given the other
+            // body goes to that body's owner.
+            let Some(owner) = self.sim.info(other).map(|i| i.cluster_id) else {
+                continue;
+            };
+            if owner == me || !self.config.neighbours.contains(&owner) {
+                continue;
+            }
+            self.outgoing_ops.entry(owner).or_default().push(RoutedOp {
+                op: PhysicsOp::Impulse {
+                    target: other,
+                    impulse: impulse.map(|c| -c),
+                },
+                issued_ns: monotonic_ns(),
+                issued_tick: tick,
+                forwarded: false,
+            });
+            self.stats.seam_impulses_routed += 1;
+        }
         for (target, impulse) in settled.impulses {
             let simulated_here = self
                 .sim

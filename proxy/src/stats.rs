@@ -38,8 +38,11 @@ pub struct ClusterStats {
     pub seam_impulses_settled: u64,
     /// Pairs whose two worlds' impulses disagreed too much to be one contact: left unsettled.
     pub seam_impulses_disagreed: u64,
-    /// Impulses (this world's or a report) whose other half did not come in time: left.
+    /// Impulses (this world's or a report) whose other half did not come in time.
     pub seam_impulses_unmatched: u64,
+    /// Of those, this world's: contacts the other world did not see, whose push went to the
+    /// other body's owner as a routed impulse (counted in `ops_routed` too).
+    pub seam_impulses_routed: u64,
     /// Times a proxy was made a dynamic body of its entity's mass because a body simulated
     /// here could touch it (see `seam_sim::coupling`).
     pub proxies_coupled: u64,

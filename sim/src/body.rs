@@ -21,6 +21,9 @@ pub(crate) struct Entry {
     /// reads of a proxy return, whatever its body does (a Fixed body has none; a kinematic one
     /// has the dead-reckoning velocity).
     pub(crate) replicated: ([f32; 3], [f32; 3]),
+    /// This world's tick at which the body stood where the entity was: when it was spawned or
+    /// set to a replicated state, or when coupling last let it go where the steps had put it.
+    pub(crate) posed_tick: u64,
 }
 
 /// Contacts that produce events: Rapier's default (anything with a dynamic body) plus
@@ -83,6 +86,7 @@ pub(crate) fn insert(
             body: state.body,
         },
         replicated: (state.linvel, state.angvel),
+        posed_tick: 0,
     };
     stale.push((entry.body, entry.collider));
     entry

@@ -184,7 +184,8 @@ impl ClusterSim {
             // What its neighbours are told of how it moves.
             state.body.simulated = role == BodyRole::Dynamic;
         }
-        let entry = body::insert(&mut self.world, &mut self.stale, &state, role);
+        let mut entry = body::insert(&mut self.world, &mut self.stale, &state, role);
+        entry.posed_tick = self.tick;
         self.entities.insert(state.id, entry);
         Ok(())
     }
@@ -223,6 +224,8 @@ impl ClusterSim {
             .ok_or(SimError::UnknownEntity(id))?;
         self.world.bodies[entry.body].set_body_type(role.rapier(), true);
         entry.info.role = role;
+        // Where it stands now is where the entity is (a body handed away, say).
+        entry.posed_tick = self.tick;
         if entry.info.cluster_id == self.config.cluster_id {
             entry.info.body.simulated = role == BodyRole::Dynamic;
         }
@@ -238,6 +241,7 @@ impl ClusterSim {
             &mut self.entities,
             self.config.cluster_id,
             rest,
+            self.tick,
             self.config.dt,
         )
     }
@@ -286,6 +290,7 @@ impl ClusterSim {
             state,
             self.config.dt,
         );
+        entry.posed_tick = self.tick;
         Ok(())
     }
 

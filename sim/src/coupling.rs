@@ -19,6 +19,11 @@
 //! proxy of an entity its owner moves itself (a Fixed floor, a kinematic door) is never coupled:
 //! it is as immovable here as it is there.
 //!
+//! A Fixed proxy stands where its owner's last frame put it, while the entity moves on until
+//! the next frame. So it is judged, and coupled, where its replicated velocity has carried it
+//! since (at most [`MAX_LEAD_TICKS`]): with a frame every 8 ticks, a ball rolled at a crate
+//! would otherwise meet the crate's proxy where the crate was up to 8 ticks before.
+//!
 //! "May touch" is judged on boxes: the proxy's box swept by its replicated velocity over a step,
 //! against each simulated body's box swept by its velocity, both grown by [`REACH_MARGIN_M`].
 
@@ -46,6 +51,10 @@ pub struct CouplingChanges {
 /// The box a body's collider covers at the body's pose now (a body moved since the last step
 /// has a collider that does not know it yet), swept by `velocity` over `dt` and grown by
 /// `margin`.
+/// The most ticks a Fixed proxy is carried forward by its replicated velocity when coupled:
+/// past a few frames' worth, the owner's frames have stopped coming and a guess is no better.
+pub const MAX_LEAD_TICKS: u64 = 16;
+
 fn swept_box(
     body: &RigidBody,
     collider: &Collider,
@@ -65,8 +74,19 @@ pub(crate) fn couple(
     entities: &mut IdMap<EntityId, Entry>,
     me: ClusterId,
     rest: BodyRole,
+    now: u64,
     dt: f32,
 ) -> CouplingChanges {
+    // A Fixed proxy stands where its owner's last frame put it; with a frame every few ticks
+    // the entity has moved on since. It is judged, and coupled, where its replicated velocity
+    // has carried it (a kinematic proxy is carried by its own dead reckoning).
+    let lead = |e: &Entry| {
+        if e.info.role != BodyRole::Fixed {
+            return Vector::ZERO;
+        }
+        let ticks = now.saturating_sub(e.posed_tick).min(MAX_LEAD_TICKS);
+        Vector::from_array(e.replicated.0) * (ticks as f32 * dt)
+    };
     let is_proxy = |e: &Entry| {
         e.info.cluster_id != me && e.info.cluster_id != ClusterId::SCENERY && e.info.body.simulated
     };
@@ -86,10 +106,9 @@ pub(crate) fn couple(
         }
         let velocity = Vector::from_array(entry.replicated.0);
         let (body, collider) = (&world.bodies[entry.body], &world.colliders[entry.collider]);
-        proxies.push((
-            index,
-            swept_box(body, collider, velocity, dt, REACH_MARGIN_M),
-        ));
+        let swept = swept_box(body, collider, velocity, dt, REACH_MARGIN_M);
+        let lead = lead(entry);
+        proxies.push((index, Aabb::new(swept.mins + lead, swept.maxs + lead)));
     }
     let mut dynamic = vec![false; proxies.len()];
     if any_simulated && !proxies.is_empty() {
@@ -148,7 +167,12 @@ pub(crate) fn couple(
         if entry.info.role == want {
             continue;
         }
+        let lead = lead(entry);
         let body = &mut world.bodies[entry.body];
+        if want == BodyRole::Dynamic && lead != Vector::ZERO {
+            let at = body.translation() + lead;
+            body.set_translation(at, true);
+        }
         body.set_body_type(want.rapier(), true);
         if want == BodyRole::Dynamic {
             // It meets this cluster's bodies with the motion its owner gave it, not the
@@ -157,6 +181,8 @@ pub(crate) fn couple(
             body.set_angvel(Vector::from_array(entry.replicated.1), true);
             changes.coupled += 1;
         } else {
+            // Left where the steps put it, which is where the entity is now.
+            entry.posed_tick = now;
             changes.released += 1;
         }
         entry.info.role = want;
