@@ -4,28 +4,23 @@
 //!
 //! ```
 //! use std::time::Duration;
-//! use seam_proxy::{Cluster, ClusterConfig, lockstep_round};
-//! use seam_sim::BodyRole;
-//! use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+//! use seam_proxy::prelude::*;
 //!
-//! // Two clusters in one process on iceoryx2's in-process transport.
-//! let (a, b) = (ClusterId::random(), ClusterId::random());
-//! let url = format!("local?prefix=doc_{}_", std::process::id());
+//! // Two clusters in one process on iceoryx2's in-process transport. Ids from names: every
+//! // process of one run (here "doc-<pid>") derives the same ones.
+//! let run = format!("doc-{}", std::process::id());
+//! let (a, b) = (ClusterId::named(&run, "a"), ClusterId::named(&run, "b"));
+//! let url = format!("local?prefix={run}_");
 //! let mut clusters = vec![
 //!     Cluster::new(ClusterConfig::new(a, vec![b], &url))?,
 //!     Cluster::new(ClusterConfig::new(b, vec![a], &url))?,
 //! ];
-//! let crate_ = EntityState {
-//!     id: EntityId::random(),
-//!     cluster_id: a,
-//!     tick: 0,
-//!     epoch: 0,
-//!     position: [10.0, 0.0, 0.0],
-//!     rotation: [0.0, 0.0, 0.0, 1.0],
-//!     linvel: [0.0; 3],
-//!     angvel: [0.0; 3],
-//!     body: BodyShape { shape: Shape::Cuboid { half_extents: [0.5; 3] }, density: 500.0, ccd: false, simulated: true },
-//! };
+//! let crate_ = EntityState::new(
+//!     EntityId::named(&run, "crate"),
+//!     a,
+//!     BodyShape::new(Shape::cuboid(0.5, 0.5, 0.5)).density(500.0),
+//! )
+//! .at([10.0, 0.0, 0.0]);
 //! clusters[0].spawn_owned(&crate_, BodyRole::Dynamic)?;
 //! for _ in 0..2 {
 //!     lockstep_round(&mut clusters, Duration::from_secs(5), |index, _context, physics| {
@@ -198,6 +193,7 @@
 //!
 //! # Layout
 //!
+//! - [`prelude`] — what game code imports.
 //! - `cluster` — [`Cluster`]: the tick, reconcile, routing, contacts, publish.
 //! - `config` — [`ClusterConfig`], [`Region`], [`WorldCluster`], [`ProxyMode`], [`CustomProxy`].
 //! - `dead_reckoning` — where a kinematic proxy aims between frames.
@@ -244,3 +240,13 @@ pub use interest::extent;
 pub use lockstep::lockstep_round;
 pub use settle::HALF_WAITS_TICKS;
 pub use stats::ClusterStats;
+
+/// What game code needs to run clusters, in one import: `use seam_proxy::prelude::*;`.
+pub mod prelude {
+    pub use crate::{
+        AuthorityMode, AuthorityPolicy, Cluster, ClusterConfig, ClusterError, ProxyMode, Region,
+        WorldCluster, lockstep_round,
+    };
+    pub use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, PhysicsOp, Shape};
+    pub use seam_sim::{BodyRole, PhysicsHandle, TickContext};
+}

@@ -240,22 +240,12 @@ impl Drop for Peer {
 /// entity id.
 pub fn ball_at(x: f32, owner: seam_sim::wire::ClusterId) -> seam_sim::wire::EntityState {
     use seam_sim::wire::{BodyShape, EntityId, EntityState, Shape};
-    EntityState {
-        id: EntityId::random(),
-        cluster_id: owner,
-        tick: 0,
-        epoch: 0,
-        position: [x, 0.0, 0.0],
-        rotation: [0.0, 0.0, 0.0, 1.0],
-        linvel: [0.0; 3],
-        angvel: [0.0; 3],
-        body: BodyShape {
-            shape: Shape::Ball { radius: 0.5 },
-            density: 100.0,
-            ccd: false,
-            simulated: true,
-        },
-    }
+    EntityState::new(
+        EntityId::random(),
+        owner,
+        BodyShape::new(Shape::ball(0.5)).density(100.0),
+    )
+    .at([x, 0.0, 0.0])
 }
 
 /// A private `redis-server` for a test that crashes and restarts it, or `None` (with a skip

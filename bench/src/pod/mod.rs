@@ -285,18 +285,11 @@ impl Pod {
                             continue;
                         }
                         let offset = [i, j, k].map(|n| n as f32);
-                        let state = EntityState {
-                            id,
-                            cluster_id,
-                            tick: 0,
-                            epoch: 0,
-                            position: [0, 1, 2]
-                                .map(|a| entity.position[a] + offset[a] * grid.spacing[a]),
-                            rotation: entity.rotation,
-                            linvel: entity.velocity,
-                            angvel: entity.angvel,
-                            body,
-                        };
+                        let state = EntityState::new(id, cluster_id, body)
+                            .at([0, 1, 2].map(|a| entity.position[a] + offset[a] * grid.spacing[a]))
+                            .rotated(entity.rotation)
+                            .velocity(entity.velocity)
+                            .spin(entity.angvel);
                         match body_role(entity.role) {
                             Some(role) => {
                                 cluster.spawn_owned(&state, role)?;
@@ -578,21 +571,18 @@ impl Pod {
                     ..
                 } if self.plays.contains(by) => {
                     let shape = SceneShape::Ball { radius: *radius };
+                    let body = BodyShape::new(wire_shape(&shape))
+                        .density(mass / shape.volume())
+                        .ccd(*ccd);
                     let state = EntityState {
-                        id: self.ids.event_entity(index, shot),
-                        cluster_id: self.cluster.id(),
                         tick,
-                        epoch: 0,
-                        position: *position,
-                        rotation: [0.0, 0.0, 0.0, 1.0],
-                        linvel: *velocity,
-                        angvel: [0.0; 3],
-                        body: BodyShape {
-                            shape: wire_shape(&shape),
-                            density: mass / shape.volume(),
-                            ccd: *ccd,
-                            simulated: true,
-                        },
+                        ..EntityState::new(
+                            self.ids.event_entity(index, shot),
+                            self.cluster.id(),
+                            body,
+                        )
+                        .at(*position)
+                        .velocity(*velocity)
                     };
                     match self.cluster.spawn_owned(&state, BodyRole::Dynamic) {
                         Ok(()) => {

@@ -3,6 +3,24 @@
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use uuid::Uuid;
 
+const FNV_OFFSET: u128 = 0x6c62272e07bb014262b821756295c58d;
+const FNV_PRIME: u128 = 0x0000000001000000000000000000013b;
+
+/// 128-bit FNV-1a over `parts`, each followed by a separator byte so ("ab", "c") and
+/// ("a", "bc") differ.
+fn fnv1a(parts: &[&[u8]]) -> u128 {
+    let mut hash = FNV_OFFSET;
+    for part in parts {
+        for &byte in *part {
+            hash ^= u128::from(byte);
+            hash = hash.wrapping_mul(FNV_PRIME);
+        }
+        hash ^= 0xff;
+        hash = hash.wrapping_mul(FNV_PRIME);
+    }
+    hash
+}
+
 macro_rules! uuid_id {
     ($(#[$doc:meta])* $name:ident) => {
         $(#[$doc])*
@@ -17,6 +35,14 @@ macro_rules! uuid_id {
         }
 
         impl $name {
+            /// The id every process derives from the same `run` and `name`, with no
+            /// coordination: a 128-bit FNV-1a hash of both (and of the kind of id, so a
+            /// cluster and an entity of one name differ). Pods started separately agree on
+            /// it; another `run` shares none. Names are the caller's: "west", "crate#3".
+            pub fn named(run: &str, name: &str) -> Self {
+                Self::from_u128(fnv1a(&[stringify!($name).as_bytes(), run.as_bytes(), name.as_bytes()]))
+            }
+
             /// A fresh random id.
             pub fn random() -> Self {
                 Self(Uuid::new_v4())
@@ -100,3 +126,30 @@ impl std::hash::Hasher for IdHasher {
 /// small hash index, so a lookup touches little memory and iteration follows the order entities
 /// were added (deterministic, and cache-friendly for callers that go in that order).
 pub type IdMap<K, V> = indexmap::IndexMap<K, V, std::hash::BuildHasherDefault<IdHasher>>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn named_ids_are_stable_and_distinct() {
+        assert_eq!(
+            ClusterId::named("run", "west"),
+            ClusterId::named("run", "west")
+        );
+        assert_ne!(
+            ClusterId::named("run", "west"),
+            ClusterId::named("run", "east")
+        );
+        assert_ne!(
+            ClusterId::named("run", "west"),
+            ClusterId::named("other", "west")
+        );
+        assert_ne!(
+            ClusterId::named("run", "ab").as_u128(),
+            EntityId::named("run", "ab").as_u128()
+        );
+        assert_ne!(EntityId::named("a", "bc"), EntityId::named("ab", "c"));
+        assert_ne!(ClusterId::named("run", "west"), ClusterId::SCENERY);
+    }
+}

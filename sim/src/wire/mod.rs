@@ -4,6 +4,7 @@
 //! [`WireError`] rather than panicking, rejects trailing bytes, and grows lists only as elements
 //! actually decode, so a forged length cannot make it allocate more than the input justifies.
 
+mod build;
 mod ids;
 mod state_codec;
 
