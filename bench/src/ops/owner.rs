@@ -22,22 +22,7 @@ pub fn run_owner(url: &str, events: &str, ack: &str, wait: WaitMode) -> Result<(
         ..SimConfig::new(here)
     });
     sim.spawn(
-        &EntityState {
-            id: TARGET,
-            cluster_id: here,
-            tick: 0,
-            epoch: 0,
-            position: [0.0; 3],
-            rotation: [0.0, 0.0, 0.0, 1.0],
-            linvel: [0.0; 3],
-            angvel: [0.0; 3],
-            body: BodyShape {
-                shape: Shape::Ball { radius: 0.5 },
-                density: 1000.0,
-                ccd: false,
-                simulated: true,
-            },
-        },
+        &EntityState::new(TARGET, here, BodyShape::new(Shape::ball(0.5))),
         BodyRole::Dynamic,
     )
     .map_err(|e| e.to_string())?;
