@@ -1068,13 +1068,23 @@ impl Cluster {
         let settled = self.settlement.settle(received, tick, wait);
         self.stats.seam_impulses_disagreed += settled.disagreed;
         self.stats.seam_impulses_unmatched += settled.unmatched;
-        for &(_, other, impulse) in &settled.unanswered {
+        for &(step, _, other, impulse) in &settled.unanswered {
             // A contact the other world did not see: the push it would have given the other
-            // body goes to that body's owner.
+            // body goes to that body's owner. Only if the owner is alive and has published its
+            // reports of that step: silence from a pod that stalled or died says nothing of
+            // what it saw, and the push would be lost with it.
             let Some(owner) = self.sim.info(other).map(|i| i.cluster_id) else {
                 continue;
             };
             if owner == me || !self.config.neighbours.contains(&owner) {
+                continue;
+            }
+            let reported_step = self.liveness.get(&owner).is_some_and(|peer| {
+                peer.status == NeighbourStatus::Alive
+                    && peer.newest_events.is_some_and(|newest| newest >= step)
+            });
+            if !reported_step {
+                self.stats.seam_impulses_unjudged += 1;
                 continue;
             }
             self.outgoing_ops.entry(owner).or_default().push(RoutedOp {

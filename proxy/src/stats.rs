@@ -43,6 +43,9 @@ pub struct ClusterStats {
     /// Of those, this world's: contacts the other world did not see, whose push went to the
     /// other body's owner as a routed impulse (counted in `ops_routed` too).
     pub seam_impulses_routed: u64,
+    /// Of those, this world's whose other world had not published its reports of that step
+    /// (stalled, dead, or lagging past the wait): nothing to judge by, so nothing routed.
+    pub seam_impulses_unjudged: u64,
     /// Times a proxy was made a dynamic body of its entity's mass because a body simulated
     /// here could touch it (see `seam_sim::coupling`).
     pub proxies_coupled: u64,

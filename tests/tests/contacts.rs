@@ -248,3 +248,45 @@ fn reads_of_a_proxy_give_the_replicated_velocity() {
         );
     }
 }
+
+/// A contact only one world reported is passed to the other body's owner as a push only once
+/// that owner has published its reports of the step: the crate's owner stalls after two
+/// rounds, the shot hits west's proxy of the crate, and west waits for east's reports of that
+/// step, which never come. Routing the push anyway would send it to a pod that could not take
+/// it (in `seam chaos`, most such pushes were lost with a stopped or killed pod); west counts
+/// the half as unjudged instead.
+#[test]
+fn a_stalled_owner_is_sent_no_push_for_a_contact_it_could_not_report() {
+    let shot = Shot::new();
+    let (west, east) = (ClusterId::random(), ClusterId::random());
+    let url = format!("local?prefix=seam_stalled_{}_", std::process::id());
+    let mut clusters: Vec<Cluster> = [(west, east), (east, west)]
+        .into_iter()
+        .map(|(me, other)| {
+            let mut config = ClusterConfig::new(me, vec![other], &url);
+            config.gravity = [0.0; 3];
+            Cluster::new(config).expect("cluster")
+        })
+        .collect();
+    clusters[0]
+        .spawn_owned(&shot.ball(west), BodyRole::Dynamic)
+        .expect("ball");
+    clusters[1]
+        .spawn_owned(&shot.crate_(east), BodyRole::Dynamic)
+        .expect("crate");
+    for _ in 0..2 {
+        lockstep_round(&mut clusters, TIMEOUT, |_, _, _| ()).expect("round");
+    }
+    let west_cluster = &mut clusters[0];
+    // East is silent from here on; well within its 60-tick timeout, so still taken as alive.
+    for _ in 0..12 {
+        west_cluster.tick(|_, _| ()).expect("west ticks alone");
+    }
+    let stats = west_cluster.stats();
+    assert!(
+        stats.seam_impulses_sent > 0,
+        "the shot met the crate's proxy in west: {stats:?}"
+    );
+    assert_eq!(stats.seam_impulses_routed, 0, "{stats:?}");
+    assert!(stats.seam_impulses_unjudged > 0, "{stats:?}");
+}
