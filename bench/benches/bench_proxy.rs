@@ -43,23 +43,11 @@ fn scene(proxies: usize) -> Vec<Cluster> {
     let mut a = Cluster::new(config_a).expect("A");
     let b = Cluster::new(config_b).expect("B");
     for i in 0..ENTITIES {
-        let state = EntityState {
-            id: EntityId::from_u128(i as u128 + 1),
-            cluster_id: a.id(),
-            tick: 0,
-            epoch: 0,
-            position: position(i),
-            rotation: [0.0, 0.0, 0.0, 1.0],
+        let body = BodyShape::new(Shape::ball(0.5));
+        let state = EntityState::new(EntityId::from_u128(i as u128 + 1), a.id(), body)
+            .at(position(i))
             // Slow drift along x, so proxies move every tick and nothing falls asleep.
-            linvel: [0.5, 0.0, 0.0],
-            angvel: [0.0; 3],
-            body: BodyShape {
-                shape: Shape::Ball { radius: 0.5 },
-                density: 1000.0,
-                ccd: false,
-                simulated: true,
-            },
-        };
+            .velocity([0.5, 0.0, 0.0]);
         a.spawn_owned(&state, BodyRole::Dynamic).expect("spawn");
     }
     vec![a, b]

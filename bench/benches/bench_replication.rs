@@ -59,21 +59,12 @@ fn op_batch(c: &mut Criterion) {
 }
 
 fn state(i: usize, owner: ClusterId) -> EntityState {
+    let body = BodyShape::new(Shape::ball(0.5));
     EntityState {
-        id: EntityId::from_u128(i as u128 + 1),
-        cluster_id: owner,
         tick: 1,
-        epoch: 0,
-        position: [(i % 100) as f32 * 3.0, 0.0, (i / 100) as f32 * 3.0],
-        rotation: [0.0, 0.0, 0.0, 1.0],
-        linvel: [0.5, 0.0, 0.0],
-        angvel: [0.0; 3],
-        body: BodyShape {
-            shape: Shape::Ball { radius: 0.5 },
-            density: 1000.0,
-            ccd: false,
-            simulated: true,
-        },
+        ..EntityState::new(EntityId::from_u128(i as u128 + 1), owner, body)
+            .at([(i % 100) as f32 * 3.0, 0.0, (i / 100) as f32 * 3.0])
+            .velocity([0.5, 0.0, 0.0])
     }
 }
 

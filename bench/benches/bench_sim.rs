@@ -53,28 +53,17 @@ fn state(i: usize) -> EntityState {
 
 fn state_in(i: usize, order: Order) -> EntityState {
     let dynamic = is_dynamic(i, order);
-    EntityState {
-        id: EntityId::from_u128(i as u128 + 1),
-        cluster_id: HERE,
-        tick: 0,
-        epoch: 0,
-        position: grid(i),
-        rotation: [0.0, 0.0, 0.0, 1.0],
-        linvel: [0.0; 3],
-        angvel: [0.0; 3],
-        body: BodyShape {
-            shape: if dynamic {
-                Shape::Ball { radius: 0.5 }
-            } else {
-                Shape::Cuboid {
-                    half_extents: [0.5, 0.5, 0.5],
-                }
-            },
-            density: 1000.0,
-            ccd: false,
-            simulated: true,
-        },
-    }
+    let shape = if dynamic {
+        Shape::ball(0.5)
+    } else {
+        Shape::cuboid(0.5, 0.5, 0.5)
+    };
+    EntityState::new(
+        EntityId::from_u128(i as u128 + 1),
+        HERE,
+        BodyShape::new(shape),
+    )
+    .at(grid(i))
 }
 
 /// Where kinematic body `i` goes at `tick`: a small circle around its grid point.

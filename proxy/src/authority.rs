@@ -207,22 +207,9 @@ mod tests {
     }
 
     fn body(x: f32) -> (EntityState, BodyRole) {
-        let state = EntityState {
-            id: EntityId::from_u128(x.to_bits() as u128 + 1),
-            cluster_id: ClusterId::from_u128(2),
-            tick: 0,
-            epoch: 0,
-            position: [x, 0.0, 0.0],
-            rotation: [0.0, 0.0, 0.0, 1.0],
-            linvel: [0.0; 3],
-            angvel: [0.0; 3],
-            body: BodyShape {
-                shape: Shape::Ball { radius: 0.5 },
-                density: 1.0,
-                ccd: false,
-                simulated: true,
-            },
-        };
+        let body = BodyShape::new(Shape::ball(0.5)).density(1.0);
+        let id = EntityId::from_u128(x.to_bits() as u128 + 1);
+        let state = EntityState::new(id, ClusterId::from_u128(2), body).at([x, 0.0, 0.0]);
         (state, BodyRole::Dynamic)
     }
 

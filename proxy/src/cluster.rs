@@ -62,8 +62,9 @@ pub enum NeighbourStatus {
     NotHeard,
     /// Heard within `neighbour_timeout_ticks`.
     Alive,
-    /// Silent for longer: its proxies were despawned.
-    Silent,
+    /// Silent for longer than `neighbour_timeout_ticks`: taken for dead, its proxies were
+    /// despawned and its entities may be adopted. A frame from it again makes it `Alive`.
+    Dead,
 }
 
 /// What a cluster tracks of one neighbour.
@@ -347,7 +348,7 @@ impl Cluster {
         if !self.config.neighbours.contains(&to) {
             return Err(refuse("not a neighbour"));
         }
-        if self.neighbour_status(to) == Some(NeighbourStatus::Silent) {
+        if self.neighbour_status(to) == Some(NeighbourStatus::Dead) {
             return Err(refuse("the neighbour is taken for dead (silent)"));
         }
         self.transfers.insert(entity, to);
@@ -403,7 +404,7 @@ impl Cluster {
                 && now.saturating_sub(peer.heard_at) > timeout
                 && now_ns.saturating_sub(peer.heard_ns) > timeout_ns
             {
-                peer.status = NeighbourStatus::Silent;
+                peer.status = NeighbourStatus::Dead;
                 lost.push(neighbour);
             }
         }
@@ -425,7 +426,7 @@ impl Cluster {
             c == me
                 || liveness
                     .get(&c)
-                    .is_none_or(|peer| peer.status != NeighbourStatus::Silent)
+                    .is_none_or(|peer| peer.status != NeighbourStatus::Dead)
         };
         for state in last.iter().filter(|s| s.cluster_id == dead) {
             if adoption::adopter(&self.config.world, dead, state.position, alive) != Some(me) {
@@ -490,7 +491,7 @@ impl Cluster {
     fn heard(&mut self, neighbour: ClusterId, tick: u64, replication: bool) {
         let now = self.sim.tick();
         if let Some(peer) = self.liveness.get_mut(&neighbour) {
-            let back = peer.status == NeighbourStatus::Silent;
+            let back = peer.status == NeighbourStatus::Dead;
             if back {
                 // Back, perhaps restarted with a lower tick: its ticks count afresh.
                 self.stats.neighbours_rejoined += 1;
@@ -679,7 +680,7 @@ impl Cluster {
                 self.stats.frames_accepted += 1;
                 self.heard(from, tick, replication);
             }
-            None => self.stats.frames_duplicate += 1,
+            None => self.stats.frames_replayed += 1,
         }
     }
 
@@ -759,7 +760,7 @@ impl Cluster {
                             && !routed.forwarded
                             && self.config.neighbours.contains(&info.cluster_id)
                             && self.neighbour_status(info.cluster_id)
-                                != Some(NeighbourStatus::Silent) =>
+                                != Some(NeighbourStatus::Dead) =>
                     {
                         self.outgoing_ops
                             .entry(info.cluster_id)
@@ -1135,7 +1136,7 @@ impl Cluster {
                 alive: self
                     .liveness
                     .get(&id)
-                    .is_none_or(|peer| peer.status != NeighbourStatus::Silent),
+                    .is_none_or(|peer| peer.status != NeighbourStatus::Dead),
             })
             .collect();
         // Adopted entities stay in custody until their owner returns and gets them back.
@@ -1231,7 +1232,7 @@ impl Cluster {
                 .get_mut(&neighbour)
                 .map(std::mem::take)
                 .unwrap_or_default();
-            if self.neighbour_status(neighbour) == Some(NeighbourStatus::Silent) {
+            if self.neighbour_status(neighbour) == Some(NeighbourStatus::Dead) {
                 // Taken for dead: its entities are adopted or gone, so writes queued for it
                 // (before it was) have no owner there. The empty frame still tells it, should it
                 // be alive after all, that this cluster is.

@@ -78,22 +78,12 @@ mod tests {
         linvel: [f32; 3],
         angvel: [f32; 3],
     ) -> EntityState {
-        EntityState {
-            id: EntityId::from_u128(1),
-            cluster_id: ClusterId::from_u128(2),
-            tick: 0,
-            epoch: 0,
-            position,
-            rotation,
-            linvel,
-            angvel,
-            body: BodyShape {
-                shape: Shape::Ball { radius: 0.3 },
-                density: 1.0,
-                ccd: false,
-                simulated: true,
-            },
-        }
+        let body = BodyShape::new(Shape::ball(0.3)).density(1.0);
+        EntityState::new(EntityId::from_u128(1), ClusterId::from_u128(2), body)
+            .at(position)
+            .rotated(rotation)
+            .velocity(linvel)
+            .spin(angvel)
     }
 
     fn angle_between(a: [f32; 4], b: [f32; 4]) -> f32 {

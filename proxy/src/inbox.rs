@@ -155,22 +155,8 @@ mod tests {
     use super::*;
 
     fn state(id: EntityId, owner: ClusterId, x: f32) -> EntityState {
-        EntityState {
-            id,
-            cluster_id: owner,
-            tick: 0,
-            epoch: 0,
-            position: [x, 0.0, 0.0],
-            rotation: [0.0, 0.0, 0.0, 1.0],
-            linvel: [0.0; 3],
-            angvel: [0.0; 3],
-            body: BodyShape {
-                shape: Shape::Ball { radius: 0.5 },
-                density: 1.0,
-                ccd: false,
-                simulated: true,
-            },
-        }
+        let body = BodyShape::new(Shape::ball(0.5)).density(1.0);
+        EntityState::new(id, owner, body).at([x, 0.0, 0.0])
     }
 
     #[test]

@@ -158,22 +158,11 @@ mod tests {
         rotation: [f32; 4],
         linvel: [f32; 3],
     ) -> EntityState {
-        EntityState {
-            id: EntityId::random(),
-            cluster_id: ClusterId::random(),
-            tick: 0,
-            epoch: 0,
-            position,
-            rotation,
-            linvel,
-            angvel: [0.0; 3],
-            body: BodyShape {
-                shape,
-                density: 1.0,
-                ccd: false,
-                simulated: true,
-            },
-        }
+        let body = BodyShape::new(shape).density(1.0);
+        EntityState::new(EntityId::random(), ClusterId::random(), body)
+            .at(position)
+            .rotated(rotation)
+            .velocity(linvel)
     }
 
     const IDENTITY: [f32; 4] = [0.0, 0.0, 0.0, 1.0];

@@ -145,7 +145,7 @@
 //! A free-running cluster that has heard from a neighbour and then hears nothing for more than
 //! `neighbour_timeout_ticks` of its own ticks, and as long in host time (ticks × `dt`: a pod
 //! catching up after a stall runs ticks back to back), takes it for dead
-//! ([`NeighbourStatus::Silent`]) and counts it in [`ClusterStats::neighbours_lost`]. While the
+//! ([`NeighbourStatus::Dead`]) and counts it in [`ClusterStats::neighbours_lost`]. While the
 //! cluster's own transport is down (`Transport::is_connected`, a Redis outage) nobody is taken
 //! for dead, and every neighbour's clock restarts when it comes back. A frame from a silent
 //! neighbour makes it alive again (`neighbours_rejoined`). A hand-off to a neighbour taken for

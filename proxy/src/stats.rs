@@ -1,6 +1,25 @@
 //! What a cluster counts.
 
-/// Counters of one cluster since it started.
+/// Declares the counters and their sum together, so a counter added to the struct is summed
+/// too.
+macro_rules! counters {
+    ($(#[$meta:meta])* pub struct $name:ident { $($(#[$doc:meta])* pub $field:ident: u64,)* }) => {
+        $(#[$meta])*
+        pub struct $name {
+            $($(#[$doc])* pub $field: u64,)*
+        }
+
+        impl std::ops::AddAssign<&$name> for $name {
+            fn add_assign(&mut self, other: &$name) {
+                $(self.$field += other.$field;)*
+            }
+        }
+    };
+}
+
+counters! {
+/// Counters of one cluster since it started. Counters of several clusters (or of one pod's
+/// several lives) add up with `+=`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct ClusterStats {
     /// Ticks run.
@@ -63,7 +82,7 @@ pub struct ClusterStats {
     pub frames_wrong_sender: u64,
     /// A frame of a live sender tagged no later than one of its frames already taken (a second
     /// frame of a tick, or an old one: a replay or a forgery): the first is kept.
-    pub frames_duplicate: u64,
+    pub frames_replayed: u64,
     /// States ignored: sent by a cluster that is not the entity's owner, invalid, or beyond
     /// `ClusterConfig::max_magnitude`.
     pub states_rejected: u64,
@@ -97,4 +116,53 @@ pub struct ClusterStats {
     /// to the owner it knew (a forwarded op that misses again is dropped and counted in
     /// `ops_dropped_not_owner`).
     pub ops_forwarded: u64,
+}
+}
+
+impl ClusterStats {
+    /// Routed writes this cluster received and dropped, every reason: not the owner (after
+    /// one forward), invalid, absurd, or queued for a neighbour taken for dead.
+    pub fn ops_dropped(&self) -> u64 {
+        self.ops_dropped_not_owner
+            + self.ops_dropped_invalid
+            + self.ops_dropped_absurd
+            + self.ops_dropped_owner_dead
+    }
+
+    /// Frames this cluster refused, every reason (the transport's own drops aside).
+    pub fn frames_refused(&self) -> u64 {
+        self.frames_malformed
+            + self.frames_wrong_version
+            + self.frames_wrong_sender
+            + self.frames_replayed
+            + self.frames_implausible
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sums_count_every_reason() {
+        let one = ClusterStats {
+            ops_dropped_not_owner: 1,
+            ops_dropped_invalid: 1,
+            ops_dropped_absurd: 1,
+            ops_dropped_owner_dead: 1,
+            frames_malformed: 1,
+            frames_wrong_version: 1,
+            frames_wrong_sender: 1,
+            frames_replayed: 1,
+            frames_implausible: 1,
+            ticks: 7,
+            ..ClusterStats::default()
+        };
+        let mut two = one;
+        two += &one;
+        assert_eq!(
+            (two.ops_dropped(), two.frames_refused(), two.ticks),
+            (8, 10, 14)
+        );
+    }
 }

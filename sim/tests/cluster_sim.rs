@@ -10,34 +10,13 @@ const HERE: ClusterId = ClusterId(uuid::Uuid::from_u128(1));
 const THERE: ClusterId = ClusterId(uuid::Uuid::from_u128(2));
 
 fn ball(id: u128, owner: ClusterId, position: [f32; 3], radius: f32) -> EntityState {
-    EntityState {
-        id: EntityId::from_u128(id),
-        cluster_id: owner,
-        tick: 0,
-        epoch: 0,
-        position,
-        rotation: [0.0, 0.0, 0.0, 1.0],
-        linvel: [0.0; 3],
-        angvel: [0.0; 3],
-        body: BodyShape {
-            shape: Shape::Ball { radius },
-            density: 1000.0,
-            ccd: false,
-            simulated: true,
-        },
-    }
+    let body = BodyShape::new(Shape::ball(radius));
+    EntityState::new(EntityId::from_u128(id), owner, body).at(position)
 }
 
 fn cuboid(id: u128, owner: ClusterId, position: [f32; 3], half: [f32; 3]) -> EntityState {
-    EntityState {
-        body: BodyShape {
-            shape: Shape::Cuboid { half_extents: half },
-            density: 1000.0,
-            ccd: false,
-            simulated: true,
-        },
-        ..ball(id, owner, position, 1.0)
-    }
+    let body = BodyShape::new(Shape::cuboid(half[0], half[1], half[2]));
+    EntityState::new(EntityId::from_u128(id), owner, body).at(position)
 }
 
 fn sim() -> ClusterSim {

@@ -119,7 +119,7 @@ fn a_dead_clusters_entities_are_adopted_once_and_returned() {
     for survivor in [west, east] {
         assert_eq!(
             clusters[survivor].neighbour_status(middle_id),
-            Some(NeighbourStatus::Silent)
+            Some(NeighbourStatus::Dead)
         );
     }
     // Nearest region adopts; the ball at 0 is as near to both, so the smaller id takes it.

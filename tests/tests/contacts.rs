@@ -22,22 +22,10 @@ fn body(id: EntityId, owner: ClusterId, x: f32, vx: f32, shape: Shape, mass: f32
         } => 8.0 * a * b * c,
         Shape::Capsule { .. } => unreachable!("not used here"),
     };
-    EntityState {
-        id,
-        cluster_id: owner,
-        tick: 0,
-        epoch: 0,
-        position: [x, 0.0, 0.0],
-        rotation: [0.0, 0.0, 0.0, 1.0],
-        linvel: [vx, 0.0, 0.0],
-        angvel: [0.0; 3],
-        body: BodyShape {
-            shape,
-            density: mass / volume,
-            ccd: true,
-            simulated: true,
-        },
-    }
+    let body = BodyShape::new(shape).density(mass / volume).ccd(true);
+    EntityState::new(id, owner, body)
+        .at([x, 0.0, 0.0])
+        .velocity([vx, 0.0, 0.0])
 }
 
 /// A 1 kg ball at 200 m/s (CCD) fired at a 100 kg crate 20 m away, no gravity.

@@ -59,7 +59,7 @@ impl Tally {
             malformed: s.frames_malformed,
             wrong_version: s.frames_wrong_version,
             wrong_sender: s.frames_wrong_sender,
-            replayed: s.frames_duplicate,
+            replayed: s.frames_replayed,
             implausible: s.frames_implausible,
             ops_invalid: s.ops_dropped_invalid,
             ops_absurd: s.ops_dropped_absurd,

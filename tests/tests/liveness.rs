@@ -50,7 +50,7 @@ fn a_silent_neighbour_is_dropped_and_rejoins() {
         let expected = if tick <= TIMEOUT_TICKS { 2 } else { 0 };
         assert_eq!(cluster_b.sim().len(), expected, "silent for {tick} ticks");
     }
-    assert_eq!(cluster_b.neighbour_status(a), Some(NeighbourStatus::Silent));
+    assert_eq!(cluster_b.neighbour_status(a), Some(NeighbourStatus::Dead));
     assert_eq!(cluster_b.stats().neighbours_lost, 1);
     // Silence does not count twice, and nothing is handed to a neighbour taken for dead.
     cluster_b.tick(|_, _| {}).expect("b ticks");

@@ -126,7 +126,7 @@ fn crossfire_pods_scripted_report_contacts(ctx: &TestContext) {
         east.cluster_stats.contacts_received > 0,
         "contacts with east's proxies reached east\n{text}"
     );
-    assert!(report.totals.contacts_received <= report.totals.contacts_sent);
+    assert!(report.totals.cluster.contacts_received <= report.totals.cluster.contacts_sent);
     assert_eq!(west.events.handoffs, 1, "{text}");
     assert_eq!(west.cluster_stats.handoffs_out, 1, "{text}");
     assert_eq!(east.cluster_stats.handoffs_in, 1, "{text}");

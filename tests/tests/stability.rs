@@ -266,22 +266,8 @@ fn lockstep_pair(test: &str) -> Vec<Cluster> {
 fn authority_thrash_keeps_exactly_one_owner() {
     let mut clusters = lockstep_pair("thrash");
     let ids = [clusters[0].id(), clusters[1].id()];
-    let entity = EntityState {
-        id: EntityId::random(),
-        cluster_id: ids[0],
-        tick: 0,
-        epoch: 0,
-        position: [0.0; 3],
-        rotation: [0.0, 0.0, 0.0, 1.0],
-        linvel: [2.0, -0.5, 1.0],
-        angvel: [0.0; 3],
-        body: BodyShape {
-            shape: Shape::Ball { radius: 0.5 },
-            density: 100.0,
-            ccd: false,
-            simulated: true,
-        },
-    };
+    let body = BodyShape::new(Shape::ball(0.5)).density(100.0);
+    let entity = EntityState::new(EntityId::random(), ids[0], body).velocity([2.0, -0.5, 1.0]);
     clusters[0]
         .spawn_owned(&entity, BodyRole::Dynamic)
         .expect("spawn");

@@ -130,7 +130,7 @@ pub fn run_free_trial(
     } else {
         0.0
     };
-    accuracy.handoffs = report.totals.handoffs_in;
+    accuracy.handoffs = report.totals.cluster.handoffs_in;
 
     let ran = report
         .pods

@@ -327,34 +327,38 @@ impl ChaosReport {
                     .map(|p| (&p.cluster_stats, &p.transport_stats)),
             )
             .collect();
+        let mut s = ClusterStats::default();
         let mut frames = FrameCounts::default();
-        let mut ops = OpCounts::default();
         let mut recovery = RecoveryCounts::default();
-        for (s, t) in incarnations {
-            frames.accepted += s.frames_accepted;
-            frames.malformed += s.frames_malformed + t.malformed_drops;
-            frames.wrong_version += s.frames_wrong_version;
-            frames.wrong_sender += s.frames_wrong_sender;
-            frames.replayed += s.frames_duplicate;
-            frames.implausible += s.frames_implausible;
+        for (stats, t) in incarnations {
+            s += stats;
+            frames.malformed += t.malformed_drops;
             frames.overflow += t.overflow_drops;
-            frames.states_rejected += s.states_rejected;
-            ops.routed += s.ops_routed;
-            ops.applied += s.ops_applied;
-            ops.dropped_not_owner += s.ops_dropped_not_owner;
-            ops.dropped_invalid += s.ops_dropped_invalid;
-            ops.dropped_absurd += s.ops_dropped_absurd;
-            ops.dropped_owner_dead += s.ops_dropped_owner_dead;
-            recovery.neighbours_lost += s.neighbours_lost;
-            recovery.neighbours_rejoined += s.neighbours_rejoined;
-            recovery.entities_adopted += s.entities_adopted;
-            recovery.entities_returned += s.entities_returned;
-            recovery.handoffs_reclaimed += s.handoffs_reclaimed;
             recovery.disconnects += t.disconnects;
             recovery.reconnects += t.reconnects;
             recovery.down_s += t.down_ns as f64 / 1e9;
             recovery.dropped_while_down += t.dropped_while_down;
         }
+        frames.accepted = s.frames_accepted;
+        frames.malformed += s.frames_malformed;
+        frames.wrong_version = s.frames_wrong_version;
+        frames.wrong_sender = s.frames_wrong_sender;
+        frames.replayed = s.frames_replayed;
+        frames.implausible = s.frames_implausible;
+        frames.states_rejected = s.states_rejected;
+        let ops = OpCounts {
+            routed: s.ops_routed,
+            applied: s.ops_applied,
+            dropped_not_owner: s.ops_dropped_not_owner,
+            dropped_invalid: s.ops_dropped_invalid,
+            dropped_absurd: s.ops_dropped_absurd,
+            dropped_owner_dead: s.ops_dropped_owner_dead,
+        };
+        recovery.neighbours_lost = s.neighbours_lost;
+        recovery.neighbours_rejoined = s.neighbours_rejoined;
+        recovery.entities_adopted = s.entities_adopted;
+        recovery.entities_returned = s.entities_returned;
+        recovery.handoffs_reclaimed = s.handoffs_reclaimed;
         Self {
             scene: scene.name.clone(),
             pods: scene.clusters.len(),

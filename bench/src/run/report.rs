@@ -49,36 +49,16 @@ pub struct Totals {
     pub entities_expected: usize,
     /// Entities owned at the end.
     pub entities_owned: usize,
-    /// Writes routed to another pod.
-    pub ops_routed: u64,
-    /// Routed writes applied by their owner.
-    pub ops_applied: u64,
-    /// Routed writes dropped (target not owned by the receiver, or invalid).
-    pub ops_dropped: u64,
-    /// Contacts with proxies reported to their owners.
-    pub contacts_sent: u64,
-    /// Contacts received from neighbours.
-    pub contacts_received: u64,
-    /// Hand-offs sent.
-    pub handoffs_out: u64,
-    /// Of those, the ones the authority policy made (entities following into the region they
-    /// are in).
-    pub handoffs_by_policy: u64,
-    /// Hand-offs taken.
-    pub handoffs_in: u64,
-    /// Routed writes a pod that no longer owned the target sent on to the owner.
-    pub ops_forwarded: u64,
+    /// The pods' counters, summed (`ClusterStats::ops_dropped` and `frames_refused` sum their
+    /// reasons).
+    pub cluster: ClusterStats,
     /// Messages lost to full receive buffers.
     pub overflow_drops: u64,
-    /// Frames refused: foreign or corrupted messages, frames that did not decode, of another
-    /// format version, from a wrong sender, or duplicates.
+    /// Frames refused: foreign or corrupted messages the transport dropped, and every frame a
+    /// pod refused (`ClusterStats::frames_refused`).
     pub malformed: u64,
-    /// Replicated states ignored.
-    pub states_rejected: u64,
     /// Tick overruns.
     pub overruns: u64,
-    /// Neighbours taken for dead by a pod (silent past its timeout).
-    pub neighbours_lost: u64,
 }
 
 /// Everything `seam run` prints.
@@ -127,20 +107,10 @@ impl RunReport {
             let s = &r.cluster_stats;
             totals.entities_expected += r.entities_at_start + r.events.projectiles as usize;
             totals.entities_owned += r.entities_owned;
-            totals.ops_routed += s.ops_routed;
-            totals.ops_applied += s.ops_applied;
-            totals.ops_dropped += s.ops_dropped_not_owner + s.ops_dropped_invalid;
-            totals.contacts_sent += s.contacts_sent;
-            totals.contacts_received += s.contacts_received;
-            totals.handoffs_out += s.handoffs_out;
-            totals.handoffs_by_policy += s.handoffs_by_policy;
-            totals.ops_forwarded += s.ops_forwarded;
-            totals.handoffs_in += s.handoffs_in;
+            totals.cluster += s;
             totals.overflow_drops += r.transport_stats.overflow_drops;
-            totals.malformed += r.transport_stats.malformed_drops + refused(s);
-            totals.states_rejected += s.states_rejected;
+            totals.malformed += r.transport_stats.malformed_drops + s.frames_refused();
             totals.overruns += r.overruns;
-            totals.neighbours_lost += s.neighbours_lost;
             pods.push(PodSummary {
                 cluster: r.cluster.clone(),
                 ticks: r.ticks,
@@ -234,19 +204,19 @@ pub fn table(report: &RunReport) -> String {
             p.proxies,
             s.ops_routed,
             s.ops_applied,
-            s.ops_dropped_not_owner + s.ops_dropped_invalid,
+            s.ops_dropped(),
             s.contacts_sent,
             s.contacts_received,
             s.handoffs_out,
             s.handoffs_in,
             p.transport_stats.overflow_drops,
-            p.transport_stats.malformed_drops + refused(s),
+            p.transport_stats.malformed_drops + s.frames_refused(),
         );
     }
     out += "tick times in ms; over = ticks longer than the tick period; ops> routed out, ops< \
             applied here, drop = dropped here; cont> contacts with proxies sent to their owner, \
             cont< received; ho> hand-offs out, ho< in; ovfl = messages lost to a full buffer, \
-            bad = frames refused (undecodable, other version, wrong sender, duplicate)\n\n";
+            bad = frames refused (undecodable, other version, wrong sender, replayed, implausible tick)\n\n";
 
     let o = &report.ops;
     out += &format!("routed ops applied: {}\n", o.ops);
@@ -282,24 +252,25 @@ pub fn table(report: &RunReport) -> String {
         );
     }
     let t = &report.totals;
+    let c = &t.cluster;
     out += &format!(
         "\nentities: {} expected (spawned + fired), {} owned at the end; ops routed {}, applied {}, \
          forwarded {}, dropped {}; contacts {} sent, {} received; hand-offs {} out ({} by the \
          authority policy, {:.1} a second), {} in; overruns {}; neighbours taken for dead {}\n",
         t.entities_expected,
         t.entities_owned,
-        t.ops_routed,
-        t.ops_applied,
-        t.ops_forwarded,
-        t.ops_dropped,
-        t.contacts_sent,
-        t.contacts_received,
-        t.handoffs_out,
-        t.handoffs_by_policy,
-        t.handoffs_out as f64 / report.wall_s.max(1e-9),
-        t.handoffs_in,
+        c.ops_routed,
+        c.ops_applied,
+        c.ops_forwarded,
+        c.ops_dropped(),
+        c.contacts_sent,
+        c.contacts_received,
+        c.handoffs_out,
+        c.handoffs_by_policy,
+        c.handoffs_out as f64 / report.wall_s.max(1e-9),
+        c.handoffs_in,
         t.overruns,
-        t.neighbours_lost
+        c.neighbours_lost
     );
     for p in report
         .pods
@@ -331,15 +302,6 @@ pub fn table(report: &RunReport) -> String {
         }
     );
     out
-}
-
-/// Frames a cluster refused, all reasons.
-pub(crate) fn refused(s: &ClusterStats) -> u64 {
-    s.frames_malformed
-        + s.frames_wrong_version
-        + s.frames_wrong_sender
-        + s.frames_duplicate
-        + s.frames_implausible
 }
 
 fn millis(nanos: u64) -> String {
