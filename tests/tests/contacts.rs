@@ -88,7 +88,8 @@ struct Split {
     coupled: u64,
 }
 
-fn split(shot: &Shot, mode: ProxyMode, coupling: bool, test: &str) -> Split {
+/// West, owning the ball, and east, owning the crate, without gravity.
+fn west_and_east(shot: &Shot, mode: ProxyMode, coupling: bool, test: &str) -> Vec<Cluster> {
     let (west, east) = (ClusterId::random(), ClusterId::random());
     let url = format!("local?prefix=seam_{test}_{}_", std::process::id());
     let mut clusters: Vec<Cluster> = [(west, east), (east, west)]
@@ -107,6 +108,11 @@ fn split(shot: &Shot, mode: ProxyMode, coupling: bool, test: &str) -> Split {
     clusters[1]
         .spawn_owned(&shot.crate_(east), BodyRole::Dynamic)
         .expect("crate");
+    clusters
+}
+
+fn split(shot: &Shot, mode: ProxyMode, coupling: bool, test: &str) -> Split {
+    let mut clusters = west_and_east(shot, mode, coupling, test);
     let mut contacts: [Vec<ContactEvent>; 2] = [Vec::new(), Vec::new()];
     let mut crate_read_in_west = f32::NAN;
     let mut ball_read_in_east_first = None;
@@ -246,22 +252,7 @@ fn reads_of_a_proxy_give_the_replicated_velocity() {
 #[test]
 fn a_stalled_owner_is_sent_no_push_for_a_contact_it_could_not_report() {
     let shot = Shot::new();
-    let (west, east) = (ClusterId::random(), ClusterId::random());
-    let url = format!("local?prefix=seam_stalled_{}_", std::process::id());
-    let mut clusters: Vec<Cluster> = [(west, east), (east, west)]
-        .into_iter()
-        .map(|(me, other)| {
-            let mut config = ClusterConfig::new(me, vec![other], &url);
-            config.gravity = [0.0; 3];
-            Cluster::new(config).expect("cluster")
-        })
-        .collect();
-    clusters[0]
-        .spawn_owned(&shot.ball(west), BodyRole::Dynamic)
-        .expect("ball");
-    clusters[1]
-        .spawn_owned(&shot.crate_(east), BodyRole::Dynamic)
-        .expect("crate");
+    let mut clusters = west_and_east(&shot, ProxyMode::Fixed, true, "stalled");
     for _ in 0..2 {
         lockstep_round(&mut clusters, TIMEOUT, |_, _, _| ()).expect("round");
     }
