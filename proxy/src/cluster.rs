@@ -22,6 +22,7 @@ use crate::dead_reckoning;
 use crate::error::ClusterError;
 use crate::inbox::{Inbox, TickFrames};
 use crate::interest::{Interest, extent};
+use crate::prediction::Predictions;
 use crate::settle::{HALF_WAITS_TICKS, Settlement};
 use crate::stats::ClusterStats;
 
@@ -142,6 +143,8 @@ pub struct Cluster {
     outgoing_impulses: IdMap<ClusterId, Vec<SeamImpulseReport>>,
     /// Own halves of those impulses not given back yet.
     settlement: Settlement,
+    /// Impulses routed by game code, shown on this world's coupled proxies of their targets.
+    predictions: Predictions,
 }
 
 impl Cluster {
@@ -204,6 +207,7 @@ impl Cluster {
             contact_merge: ContactMerge::default(),
             outgoing_impulses: IdMap::default(),
             settlement: Settlement::default(),
+            predictions: Predictions::default(),
             policy: match config_authority {
                 AuthorityMode::Spatial(settings) => Some(Box::new(Spatial::new(settings))),
                 AuthorityMode::Scripted | AuthorityMode::Custom => None,
@@ -738,10 +742,14 @@ impl Cluster {
             tick: self.sim.tick(),
         };
         self.sim.run_user(&mut outbox, user);
+        let tick = self.sim.tick();
+        if self.config.coupling {
+            self.predictions
+                .routed(self.outgoing_ops.values().flatten(), tick);
+        }
 
         // Contacts across the seam settled (see `crate::settle`), then routed writes received,
         // all applied just before the step.
-        let tick = self.sim.tick();
         self.settle_seam_impulses(&frames.events, tick);
         for (frame, received_ns) in &frames.events {
             for routed in &frame.ops {
@@ -800,6 +808,8 @@ impl Cluster {
         if self.config.coupling && self.config.proxy_mode != ProxyMode::Custom {
             let changes = self.sim.couple_proxies(self.proxy_role());
             self.stats.proxies_coupled += u64::from(changes.coupled);
+            let interval = self.config.replication_interval.max(1);
+            self.stats.impulses_predicted += self.predictions.show(&mut self.sim, tick, interval);
         }
         self.sim.step();
         self.report_contacts();
@@ -948,6 +958,7 @@ impl Cluster {
     }
 
     fn update_proxy(&mut self, state: &EntityState) -> Result<(), ()> {
+        self.predictions.state_applied(state.id);
         let coupled = self
             .sim
             .info(state.id)

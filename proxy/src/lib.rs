@@ -199,6 +199,8 @@
 //! - `dead_reckoning` — where a kinematic proxy aims between frames.
 //! - `contact_merge` — each contact once per side.
 //! - `settle` — contacts across the seam end equal and opposite: momentum conserved.
+//! - `prediction` — a push game code routes to an owner is shown on this world's coupled
+//!   proxy in the step it is written.
 //! - `inbox` — frames by sender and step count, for lock-step.
 //! - `interest` — which neighbour entities are modelled: [`extent`] against the region and
 //!   the room around this cluster's own bodies.
@@ -224,6 +226,7 @@ mod error;
 mod inbox;
 mod interest;
 mod lockstep;
+mod prediction;
 mod settle;
 mod stats;
 

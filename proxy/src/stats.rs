@@ -68,6 +68,9 @@ pub struct ClusterStats {
     /// Times a proxy was made a dynamic body of its entity's mass because a body simulated
     /// here could touch it (see `seam_sim::coupling`).
     pub proxies_coupled: u64,
+    /// Times an impulse game code routed to an entity's owner was added to this world's coupled
+    /// proxy of it, until the owner's frames carry it (see `crate::prediction`).
+    pub impulses_predicted: u64,
     /// Entities handed to another cluster.
     pub handoffs_out: u64,
     /// Entities taken over from another cluster.
