@@ -86,6 +86,11 @@ enum Command {
         scenes: Vec<std::path::PathBuf>,
         #[command(flatten)]
         knobs: Knobs,
+        /// Print, on stderr after every tick, where this entity (its scene name; `name#i` for
+        /// a grid copy, as the "largest" line names it) is in the split run and in the single
+        /// world, which cluster simulates it, and how far apart the two are.
+        #[arg(long, value_name = "NAME")]
+        trace: Option<String>,
         #[command(flatten)]
         output: Output,
     },
@@ -326,12 +331,13 @@ impl Knobs {
 fn compare(
     scenes: &[std::path::PathBuf],
     settings: &TrialSettings,
+    trace: Option<&str>,
     output: Output,
 ) -> Result<(), String> {
     let mut results = Vec::new();
     for path in scenes {
         let scene = seam_bench::scene::load(path).map_err(|e| e.to_string())?;
-        let result = accuracy::run_trial(&scene, settings, &run::fresh_run_id())?;
+        let result = accuracy::run_trial(&scene, settings, &run::fresh_run_id(), trace)?;
         if output.json {
             println!(
                 "{}",
@@ -592,8 +598,9 @@ fn main() -> ExitCode {
         Command::Compare {
             scenes,
             knobs,
+            trace,
             output,
-        } => compare(&scenes, &knobs.settings(), output),
+        } => compare(&scenes, &knobs.settings(), trace.as_deref(), output),
         Command::Sweep {
             scenes,
             quick,

@@ -105,7 +105,11 @@
 //! one for an entity the receiver never owned, is dropped and counted in
 //! [`ClusterStats::ops_dropped_not_owner`]. So an op is applied at most once, and lost only
 //! with a lost frame or a dead owner. A joint between entities of different owners is refused
-//! (`create_joint` returns `None`).
+//! (`create_joint` returns `None`). An impulse routed while the writer's proxy of its target is
+//! coupled is also added to that proxy, from the step it is written until the owner's next
+//! state of the entity: a blast on bodies of both sides pushes them apart together in the
+//! writer's world instead of ramming its own bodies into proxies still standing (see
+//! `prediction`).
 //!
 //! # Authority
 //!

@@ -50,7 +50,7 @@ fn trial(scene: &Scene, settings: TrialSettings) -> Accuracy {
         std::process::id(),
         seam_proxy::monotonic_ns() % 1_000_000_007
     );
-    run_trial(scene, &settings, &run_id)
+    run_trial(scene, &settings, &run_id, None)
         .unwrap_or_else(|e| panic!("{}: {e}", scene.name))
         .accuracy
 }
@@ -142,5 +142,33 @@ fn no_body_escapes_at_any_setting() {
                 }
             }
         }
+    }
+}
+
+/// `seam compare --trace NAME` follows one entity of the scene, a grid copy by `name#i`; a
+/// name the scene does not have is an error that says how names look, not a silent run.
+#[test]
+fn a_trace_names_an_entity_of_the_scene() {
+    let scenes = scenes();
+    let crossfire = scenes
+        .iter()
+        .find(|s| s.name == "crossfire")
+        .expect("crossfire");
+    let settings = TrialSettings {
+        ticks: Some(3),
+        ..TrialSettings::default()
+    };
+    let run_id = format!("trace{}", std::process::id());
+    for name in ["runner", "crates-east#7"] {
+        run_trial(crossfire, &settings, &run_id, Some(name))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
+    for name in ["nobody", "crates-east", "crates-east#99"] {
+        let error = run_trial(crossfire, &settings, &run_id, Some(name))
+            .expect_err("an entity the scene does not have");
+        assert!(
+            error.contains(name) && error.contains("name#i"),
+            "{name}: {error}"
+        );
     }
 }

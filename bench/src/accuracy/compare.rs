@@ -102,6 +102,8 @@ pub struct Comparison {
     escaped: HashSet<EntityId>,
     /// The body with the largest position error so far, and when.
     worst: Option<(EntityId, u64)>,
+    /// The entity whose every tick is printed (see [`Comparison::trace`]).
+    traced: Option<EntityId>,
 }
 
 /// What a body must stay within: above the lowest static surface, inside a region.
@@ -213,6 +215,40 @@ impl Comparison {
             reference_hits: BTreeMap::new(),
             split_hits: BTreeMap::new(),
             last: IdMap::default(),
+            traced: None,
+        }
+    }
+
+    /// Prints, on stderr after each tick, where the entity `name` (`name#i` for a grid copy)
+    /// is in the split run and in the single world, who simulates it, and how far apart the
+    /// two are: where an error comes from. An error if the reference has no such entity.
+    pub fn trace(&mut self, reference: &Pod, name: &str) -> Result<(), String> {
+        let sim = reference.cluster().sim();
+        let id = sim
+            .entities()
+            .map(|(id, _)| id)
+            .find(|&id| reference.entity_name(id) == name)
+            .ok_or_else(|| {
+                format!("--trace: no entity {name:?} in the scene (a grid copy is `name#i`)")
+            })?;
+        self.traced = Some(id);
+        eprintln!(
+            "tick owner: split position m, velocity m/s | one world position, velocity | apart m"
+        );
+        Ok(())
+    }
+
+    fn print_traced(&self, tick: u64, split: Option<(&str, &EntityState)>, truth: &EntityState) {
+        let v = |a: [f32; 3]| format!("({:7.2} {:6.2} {:7.2})", a[0], a[1], a[2]);
+        let one = format!("{} {}", v(truth.position), v(truth.linvel));
+        match split {
+            Some((owner, state)) => eprintln!(
+                "{tick:5} {owner}: {} {} | {one} | {:.3}",
+                v(state.position),
+                v(state.linvel),
+                distance(state.position, truth.position)
+            ),
+            None => eprintln!("{tick:5} nobody simulates it (in transit or lost) | {one}"),
         }
     }
 
@@ -223,6 +259,7 @@ impl Comparison {
         let truth: IdMap<EntityId, EntityState> = simulated(reference).map(|s| (s.id, s)).collect();
         let projectiles: HashSet<EntityId> = reference.projectiles().iter().copied().collect();
         let mut seen: IdMap<EntityId, ClusterId> = IdMap::default();
+        let mut traced_seen = false;
         let (mut p_split, mut p_ref) = ([0.0f64; 3], [0.0f64; 3]);
         for pod in pods {
             for state in simulated(pod) {
@@ -238,6 +275,10 @@ impl Comparison {
                 let Some(truth) = truth.get(&state.id) else {
                     continue;
                 };
+                if self.traced == Some(state.id) {
+                    traced_seen = true;
+                    self.print_traced(tick, Some((pod.name(), &state)), truth);
+                }
                 if let Some((was, before, truth_before)) = self.last.get(&state.id)
                     && *was != owner
                 {
@@ -307,6 +348,12 @@ impl Comparison {
                     self.acc.missing_entity_ticks += 1;
                 }
             }
+        }
+        if let Some(id) = self.traced
+            && !traced_seen
+            && let Some(truth) = truth.get(&id)
+        {
+            self.print_traced(tick, None, truth);
         }
         // A push routed this tick reaches its owner's body in the owner's next tick: until
         // then its momentum is in flight, as a body in transit carries its own.

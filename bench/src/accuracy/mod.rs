@@ -172,10 +172,12 @@ pub struct TrialResult {
 }
 
 /// Runs `scene` split and as a reference, tick for tick, and compares them.
+/// With `trace`, prints that entity's every tick (see [`Comparison::trace`]).
 pub fn run_trial(
     scene: &Scene,
     settings: &TrialSettings,
     run_id: &str,
+    trace: Option<&str>,
 ) -> Result<TrialResult, String> {
     let scene = settings.apply(scene.clone());
     let pod_settings = |transport: String| PodSettings {
@@ -207,6 +209,9 @@ pub fn run_trial(
         .collect::<Result<Vec<_>, _>>()?;
 
     let mut comparison = Comparison::new(&scene, &reference);
+    if let Some(name) = trace {
+        comparison.trace(&reference, name)?;
+    }
     let mut tick_times: Vec<LatencyRecorder> = pods.iter().map(|_| Default::default()).collect();
     let mut reference_time = LatencyRecorder::default();
     let mut proxies_sum = 0u64;
