@@ -142,6 +142,35 @@ pub struct WorldCluster {
     pub neighbours: Vec<ClusterId>,
 }
 
+impl Region {
+    /// Whether this region grown by `margin` and `other` grown by `other_margin` touch or
+    /// overlap.
+    pub fn touches(&self, margin: f32, other: &Region, other_margin: f32) -> bool {
+        let margin = margin + other_margin;
+        (0..3).all(|k| self.min[k] <= other.max[k] + margin && other.min[k] <= self.max[k] + margin)
+    }
+}
+
+/// The world map of clusters given as (id, region, spread): each cluster's neighbours are those
+/// whose region, grown by its spread, touches its own grown by its spread — the clusters whose
+/// entities it may model. Give every cluster the whole map ([`ClusterConfig::world`]) and its
+/// own entry's neighbours ([`ClusterConfig::neighbours`]).
+pub fn world_map(clusters: &[(ClusterId, Region, f32)]) -> Vec<WorldCluster> {
+    clusters
+        .iter()
+        .map(|&(id, region, spread)| WorldCluster {
+            id,
+            region,
+            neighbours: clusters
+                .iter()
+                .filter(|(other, ..)| *other != id)
+                .filter(|(_, other, other_spread)| region.touches(spread, other, *other_spread))
+                .map(|(other, ..)| *other)
+                .collect(),
+        })
+        .collect()
+}
+
 impl ClusterConfig {
     /// A cluster observing everything, with Fixed proxies, 60 Hz, replication every tick,
     /// neighbours taken for dead after 60 silent ticks, and the [`AuthorityMode::Spatial`]

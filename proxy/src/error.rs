@@ -47,4 +47,7 @@ pub enum ClusterError {
         /// Why not.
         reason: &'static str,
     },
+    /// A free-running schedule that cannot be kept (see `Schedule::new`).
+    #[error("schedule: {0}")]
+    Schedule(String),
 }

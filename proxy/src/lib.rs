@@ -199,7 +199,10 @@
 //!
 //! - [`prelude`] — what game code imports.
 //! - `cluster` — [`Cluster`]: the tick, reconcile, routing, contacts, publish.
-//! - `config` — [`ClusterConfig`], [`Region`], [`WorldCluster`], [`ProxyMode`], [`CustomProxy`].
+//! - `config` — [`ClusterConfig`], [`Region`], [`WorldCluster`] and [`world_map`], [`ProxyMode`],
+//!   [`CustomProxy`].
+//! - `schedule` — [`Schedule`]: a free-running cluster's ticks on the host's clock, as a pod
+//!   runs them.
 //! - `dead_reckoning` — where a kinematic proxy aims between frames.
 //! - `contact_merge` — each contact once per side.
 //! - `settle` — contacts across the seam end equal and opposite: momentum conserved.
@@ -231,6 +234,7 @@ mod inbox;
 mod interest;
 mod lockstep;
 mod prediction;
+mod schedule;
 mod settle;
 mod stats;
 
@@ -240,19 +244,20 @@ pub use authority::{
 pub use channels::{physics_events, replication};
 pub use clock::{OpTiming, monotonic_ns};
 pub use cluster::{Cluster, DRAIN_S, MAX_OP_TIMINGS, NeighbourStatus};
-pub use config::{ClusterConfig, CustomProxy, ProxyMode, Region, WorldCluster};
+pub use config::{ClusterConfig, CustomProxy, ProxyMode, Region, WorldCluster, world_map};
 pub use contact_merge::MERGE_WINDOW_TICKS;
 pub use error::ClusterError;
 pub use interest::extent;
 pub use lockstep::lockstep_round;
+pub use schedule::{DRAIN_TICKS_UNSCHEDULED, Due, Schedule};
 pub use settle::HALF_WAITS_TICKS;
 pub use stats::ClusterStats;
 
 /// What game code needs to run clusters, in one import: `use seam_proxy::prelude::*;`.
 pub mod prelude {
     pub use crate::{
-        AuthorityMode, AuthorityPolicy, Cluster, ClusterConfig, ClusterError, ProxyMode, Region,
-        WorldCluster, lockstep_round,
+        AuthorityMode, AuthorityPolicy, Cluster, ClusterConfig, ClusterError, NeighbourStatus,
+        ProxyMode, Region, Schedule, WorldCluster, lockstep_round, monotonic_ns, world_map,
     };
     pub use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, PhysicsOp, Shape};
     pub use seam_sim::{BodyRole, PhysicsHandle, TickContext};

@@ -1,12 +1,13 @@
 //! `seam node`: one cluster pod running its part of a scene.
 //!
-//! The pod ticks on a fixed schedule (60 Hz unless told otherwise, or as fast as it can with
-//! rate 0). Between ticks it sleeps on its transport's wake-up ([`Pod::wait`]), taking frames
-//! off the transport as they arrive, so an idle pod uses no CPU and "received" stamps mean
-//! arrival. Pods started by `seam run` share a start time on the host's monotonic clock, so
-//! their tick `k` falls at the same moment. SIGINT or SIGTERM ends the run after the current
-//! tick, and the pod still reports. The last half second of a run (`seam_proxy::DRAIN_S`)
-//! starts no policy hand-offs, so that every hand-off under way is taken before the pods stop.
+//! The pod ticks on a [`seam_proxy::Schedule`] (60 Hz unless told otherwise, or as fast as it
+//! can with rate 0): between ticks it sleeps on its transport's wake-up, taking frames off the
+//! transport as they arrive, so an idle pod uses no CPU and "received" stamps mean arrival.
+//! Pods started by `seam run` share a start time on the host's monotonic clock, so their tick
+//! `k` falls at the same moment; a pod restarted with `--rejoin` joins at the tick the schedule
+//! is at. SIGINT or SIGTERM ends the run after the current tick, and the pod still reports.
+//! The last half second of a run (`seam_proxy::DRAIN_S`) starts no policy hand-offs, so that
+//! every hand-off under way is taken before the pods stop.
 //!
 //! Output: JSON lines on stdout, a [`NodeLine::Progress`] four times a second and one
 //! [`NodeLine::Report`] at the end (also written to `--metrics FILE` if given); unless
@@ -17,10 +18,10 @@ mod report;
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use seam_proxy::{AuthorityMode, ProxyMode, SpatialSettings, monotonic_ns};
+use seam_proxy::{AuthorityMode, ProxyMode, Schedule, SpatialSettings, monotonic_ns};
 
 use crate::latency::LatencyRecorder;
 use crate::pod::{Part, Pod, PodSettings};
@@ -44,10 +45,6 @@ impl From<ProxyModeArg> for ProxyMode {
         }
     }
 }
-
-/// Ticks before the last that a pod running as fast as it can (rate 0, on no shared
-/// schedule) stops the policy's hand-offs.
-const DRAIN_TICKS_UNSCHEDULED: u64 = 30;
 
 /// Which hand-offs pods make, as a command-line value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
@@ -249,9 +246,6 @@ pub fn run_node(
     let scene = crate::scene::load(&args.scene)
         .map_err(|e| e.to_string())?
         .stacked(args.layers)?;
-    if !(args.rate.is_finite() && args.rate >= 0.0) {
-        return Err(format!("--rate must be 0 or positive, not {}", args.rate));
-    }
     let part = match (&args.cluster, args.reference) {
         (Some(name), false) => Part::Cluster(name.clone()),
         _ => Part::Reference,
@@ -269,57 +263,41 @@ pub fn run_node(
     let mut pod = Pod::new(&scene, &part, &settings)
         .map_err(|e| format!("{}: {shown}: {e}", pod_name(&part)))?;
     let ticks = args.ticks.unwrap_or(scene.ticks);
-    let period_ns = (args.rate > 0.0).then(|| (1e9 / args.rate) as u64);
-
-    // Tick k is due at anchor + k · period.
-    let now = monotonic_ns();
-    let mut done = 0;
-    let (anchor, start_late_ns) = match (args.start_at, period_ns) {
-        // A restarted pod joins the world at the tick the schedule is at.
-        (Some(at), Some(period)) if args.rejoin && at < now => {
-            done = ((now - at) / period + 1).min(ticks);
-            pod.resume_at(done);
-            (at, 0)
-        }
-        (Some(at), _) => (at.max(now), now.saturating_sub(at)),
-        (None, _) => (now, 0),
-    };
-    let first_tick = done;
     let fail = |e: seam_proxy::ClusterError| format!("{}: {shown}: {e}", pod_name(&part));
+    // Tick k is due at anchor + k · period; pods of one run share the anchor.
+    let now = monotonic_ns();
+    let schedule = Schedule::new(args.rate, ticks).map_err(fail)?;
+    let (mut schedule, first_tick, start_late_ns) = match args.start_at {
+        // A restarted pod joins the world at the tick the schedule is at.
+        Some(at) if args.rejoin && at < now && schedule.period_ns().is_some() => {
+            let mut schedule = schedule.starting_at(at);
+            let first = schedule.join(pod.cluster_mut());
+            (schedule, first, 0)
+        }
+        // A pod that starts after the shared start starts its ticks when it starts, rather
+        // than racing through the ones it missed.
+        Some(at) => (schedule.starting_at(at.max(now)), 0, now.saturating_sub(at)),
+        None => (schedule, 0, 0),
+    };
     let started = Instant::now();
     let mut tick_time = LatencyRecorder::default();
     let (mut overruns, mut max_lag_ns, mut proxies_peak) = (0u64, 0u64, 0usize);
     let mut last_progress = Instant::now();
-    // The last ticks start no policy hand-offs, so that those under way are taken before the
-    // neighbours stop (see `Cluster::stop_policy_handoffs`).
-    let drain_ticks = if args.rate > 0.0 {
-        (seam_proxy::DRAIN_S * args.rate).ceil() as u64
-    } else {
-        DRAIN_TICKS_UNSCHEDULED
-    };
-    let mut draining = false;
-    while done < ticks && !stop.load(Ordering::Relaxed) {
-        if !draining && done + drain_ticks >= ticks {
-            pod.stop_policy_handoffs();
-            draining = true;
-        }
-        let due = anchor + period_ns.map_or(0, |p| done * p);
-        loop {
-            let now = monotonic_ns();
-            if now >= due || stop.load(Ordering::Relaxed) {
-                max_lag_ns = max_lag_ns.max(now.saturating_sub(due));
-                break;
-            }
-            pod.wait(Duration::from_nanos(due - now)).map_err(fail)?;
-        }
+    // The schedule stops the policy's hand-offs in the last ticks, so that those under way
+    // are taken before the neighbours stop (see `Cluster::stop_policy_handoffs`).
+    while let Some(due) = schedule
+        .wait_for_next(pod.cluster_mut(), stop)
+        .map_err(fail)?
+    {
+        max_lag_ns = max_lag_ns.max(due.lag_ns);
         let begun = Instant::now();
         pod.tick().map_err(fail)?;
         let took = begun.elapsed().as_nanos() as u64;
         tick_time.record(took);
-        if period_ns.is_some_and(|p| took > p) {
+        if schedule.period_ns().is_some_and(|p| took > p) {
             overruns += 1;
         }
-        done += 1;
+        let done = due.tick + 1;
         if last_progress.elapsed() >= PROGRESS_EVERY || done == ticks {
             last_progress = Instant::now();
             let (owned, proxies) = pod.population();
@@ -342,6 +320,7 @@ pub fn run_node(
             emit(out, &NodeLine::Progress(Box::new(progress)))?;
         }
     }
+    let done = schedule.next_tick();
     let (entities_owned, proxies) = pod.population();
     let transport = pod.cluster().transport_stats();
     let report = NodeReport {

@@ -22,7 +22,7 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use std::time::Duration;
 
 use seam_proxy::{
-    AuthorityMode, Cluster, ClusterConfig, ClusterError, ProxyMode, Region, WorldCluster,
+    AuthorityMode, Cluster, ClusterConfig, ClusterError, ProxyMode, Region, WorldCluster, world_map,
 };
 use seam_sim::BodyRole;
 use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
@@ -134,33 +134,20 @@ pub struct Pod {
 /// How often a pod looks for projectiles in its world, ticks.
 const SEEN_EVERY: u64 = 10;
 
-/// Whether two boxes, each grown by its margin, touch or overlap.
-fn touch(a: &scene::Region, a_margin: f32, b: &scene::Region, b_margin: f32) -> bool {
-    let margin = a_margin + b_margin;
-    (0..3).all(|k| a.min[k] <= b.max[k] + margin && b.min[k] <= a.max[k] + margin)
-}
-
-/// Every cluster of `scene` with its region and neighbours, for adoption (see
-/// `ClusterConfig::world`).
-fn world_map(scene: &Scene, ids: &HashMap<String, ClusterId>) -> Vec<WorldCluster> {
-    scene
+/// Every cluster of `scene` with its region and neighbours (see `seam_proxy::world_map`).
+fn scene_world_map(scene: &Scene, ids: &HashMap<String, ClusterId>) -> Vec<WorldCluster> {
+    let clusters: Vec<(ClusterId, Region, f32)> = scene
         .clusters
         .iter()
-        .map(|me| WorldCluster {
-            id: ids[&me.name],
-            region: Region {
-                min: me.region.min,
-                max: me.region.max,
-            },
-            neighbours: scene
-                .clusters
-                .iter()
-                .filter(|c| c.name != me.name)
-                .filter(|c| touch(&me.region, me.spread, &c.region, c.spread))
-                .map(|c| ids[&c.name])
-                .collect(),
+        .map(|c| {
+            let region = Region {
+                min: c.region.min,
+                max: c.region.max,
+            };
+            (ids[&c.name], region, c.spread)
         })
-        .collect()
+        .collect();
+    world_map(&clusters)
 }
 
 /// The wire shape of a scene shape.
@@ -198,7 +185,7 @@ impl Pod {
             .iter()
             .map(|c| (c.name.clone(), ids.cluster(&c.name)))
             .collect();
-        let world = world_map(scene, &clusters);
+        let world = scene_world_map(scene, &clusters);
         let (name, plays, cluster_id, neighbours, region, spread) = match part {
             Part::Reference => (
                 "reference".to_owned(),
@@ -326,18 +313,6 @@ impl Pod {
             projectile_hits: BTreeMap::new(),
             projectiles_seen: HashSet::new(),
         })
-    }
-
-    /// Stops the policy's hand-offs before the pod's last ticks (see
-    /// [`Cluster::stop_policy_handoffs`]).
-    pub fn stop_policy_handoffs(&mut self) {
-        self.cluster.stop_policy_handoffs();
-    }
-
-    /// Carries on the world's tick count from `tick` (a restarted pod; see
-    /// [`Cluster::resume_at`]).
-    pub fn resume_at(&mut self, tick: u64) {
-        self.cluster.resume_at(tick);
     }
 
     /// Every entity this pod owns now.
@@ -468,9 +443,9 @@ impl Pod {
         (owned, proxies)
     }
 
-    /// Waits up to `timeout` for frames between ticks (see [`Cluster::wait`]).
-    pub fn wait(&mut self, timeout: Duration) -> Result<bool, ClusterError> {
-        self.cluster.wait(timeout)
+    /// The cluster, to run on a schedule (see `seam_proxy::Schedule`).
+    pub fn cluster_mut(&mut self) -> &mut Cluster {
+        &mut self.cluster
     }
 
     /// One free-running tick with this tick's events.
