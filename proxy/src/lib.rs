@@ -198,7 +198,10 @@
 //! # Layout
 //!
 //! - [`prelude`] — what game code imports.
-//! - `cluster` — [`Cluster`]: the tick, reconcile, routing, contacts, publish.
+//! - `cluster` — [`Cluster`] and the order of one tick; beside it, each phase with its own
+//!   file: `receive` (frames in), `liveness` (who is alive, adoption), `reconcile` (frames
+//!   applied: hand-offs, proxies), `routing` (writes queued and applied), `contacts` (reports,
+//!   settling), `publish` (frames out).
 //! - `config` — [`ClusterConfig`], [`Region`], [`WorldCluster`] and [`world_map`], [`ProxyMode`],
 //!   [`CustomProxy`].
 //! - `schedule` — [`Schedule`]: a free-running cluster's ticks on the host's clock, as a pod

@@ -1,0 +1,466 @@
+//! [`Cluster`]: one cluster's world joined to a transport, ticking through the three layers.
+
+use std::time::{Duration, Instant};
+
+use seam_sim::wire::{
+    self, ClusterId, ContactReport, EntityId, EntityState, IdMap, ReplicationFrame, RoutedOp,
+    SeamImpulseReport,
+};
+use seam_sim::{BodyRole, ClusterSim, ContactEvent, PhysicsHandle, SimConfig, TickContext};
+use seam_transport::Transport;
+
+use crate::authority::{AuthorityMode, AuthorityPolicy, Spatial};
+use crate::channels;
+use crate::clock::{OpTiming, monotonic_ns};
+use crate::config::{ClusterConfig, CustomProxy, ProxyMode, Region};
+use crate::contact_merge::ContactMerge;
+use crate::error::ClusterError;
+use crate::inbox::{Inbox, TickFrames};
+use crate::interest::Interest;
+use crate::prediction::Predictions;
+use crate::settle::Settlement;
+use crate::stats::ClusterStats;
+
+mod contacts;
+mod liveness;
+mod publish;
+mod receive;
+mod reconcile;
+mod routing;
+
+pub use liveness::NeighbourStatus;
+use liveness::Peer;
+use receive::decode_frame;
+use reconcile::owner_role;
+use routing::Outbox;
+
+/// How long before its last tick a pod stops the policy's hand-offs (see
+/// [`Cluster::stop_policy_handoffs`]), seconds: pods on one schedule are a few ticks apart,
+/// and a pod that fell behind catches up within a fraction of this.
+pub const DRAIN_S: f64 = 0.5;
+
+/// Ticks a hand-off this cluster made is remembered (see `Cluster::released`): long after any
+/// repeat of an older one can still be in flight.
+const RELEASED_FOR: u64 = 600;
+
+/// Room for a physics-events frame when advertising (about 80 ops; larger frames grow it).
+const EVENTS_ROOM: usize = 4096;
+
+/// Op timings kept between two [`Cluster::take_op_timings`] calls.
+pub const MAX_OP_TIMINGS: usize = 1 << 20;
+
+/// One simulation cluster: its world, its transport, and the three cross-cluster layers.
+pub struct Cluster {
+    config: ClusterConfig,
+    sim: ClusterSim,
+    transport: Box<dyn Transport>,
+    inbox: Inbox,
+    /// Routed writes by destination, for this tick's publish.
+    outgoing_ops: IdMap<ClusterId, Vec<RoutedOp>>,
+    /// Stage times of the routed ops applied here, until the caller takes them.
+    op_timings: Vec<OpTiming>,
+    /// Contacts with proxies, by the proxy's owner, for this tick's publish.
+    outgoing_contacts: IdMap<ClusterId, Vec<ContactReport>>,
+    /// Entities to hand over at the next replication frame, and to whom.
+    transfers: IdMap<EntityId, ClusterId>,
+    /// Hand-offs not yet answered: the state each carried (new owner, final pose, next epoch).
+    /// Every replication frame repeats them until a frame of the new owner mentions the entity,
+    /// so a hand-off survives a lost frame (a neighbour that stalled past its buffer misses
+    /// some); until then the new owner's silence about the entity is not a departure.
+    handed: IdMap<EntityId, EntityState>,
+    /// Entities this cluster handed over, with the epoch they left at and the tick: a repeat of
+    /// an older hand-off to this cluster arriving after that is not taken (kept for a while,
+    /// see [`RELEASED_FOR`]).
+    released: IdMap<EntityId, (u32, u64)>,
+    custom_proxy: Option<Box<dyn CustomProxy>>,
+    replication_channel: String,
+    stats: ClusterStats,
+    /// What this cluster knows of each neighbour's liveness.
+    liveness: IdMap<ClusterId, Peer>,
+    /// The states of each neighbour's last replication frame (kept only with a world map): what
+    /// its entities are adopted from if it dies.
+    last_states: IdMap<ClusterId, Vec<EntityState>>,
+    /// Entities this cluster adopted (or took back from a neighbour that died before taking
+    /// them), with the cluster they came from: if it returns and still claims one, it gets it
+    /// back.
+    adopted: IdMap<EntityId, ClusterId>,
+    /// Whether the transport was connected at the last liveness check.
+    transport_was_up: bool,
+    /// Ticking free-running (`tick`, `wait`) rather than in lock-step: the inbox then keeps
+    /// one replication frame per neighbour.
+    free_running: bool,
+    /// Where neighbour entities are modelled (see `crate::interest`).
+    interest: Interest,
+    /// The policy asked for hand-offs at each replication frame (see `crate::authority`).
+    policy: Option<Box<dyn AuthorityPolicy>>,
+    /// Contacts surfaced lately, so each surfaces once (see `crate::contact_merge`).
+    contact_merge: ContactMerge,
+    /// What contacts across the seam gave this cluster's bodies, by the proxy's owner, for
+    /// this tick's publish (see `crate::settle`).
+    outgoing_impulses: IdMap<ClusterId, Vec<SeamImpulseReport>>,
+    /// Own halves of those impulses not given back yet.
+    settlement: Settlement,
+    /// Impulses routed by game code, shown on this world's coupled proxies of their targets.
+    predictions: Predictions,
+}
+
+impl Cluster {
+    /// Opens the transport the configuration names and subscribes to the neighbours.
+    pub fn new(config: ClusterConfig) -> Result<Self, ClusterError> {
+        let transport = seam_transport::open(&config.transport)?;
+        Self::with_transport(config, transport)
+    }
+
+    /// A cluster on a transport opened by the caller.
+    pub fn with_transport(
+        config: ClusterConfig,
+        mut transport: Box<dyn Transport>,
+    ) -> Result<Self, ClusterError> {
+        for &neighbour in &config.neighbours {
+            transport.subscribe(&channels::replication(neighbour))?;
+        }
+        transport.subscribe(&channels::physics_events(config.cluster_id))?;
+        let sim = ClusterSim::new(SimConfig {
+            cluster_id: config.cluster_id,
+            dt: config.dt,
+            gravity: config.gravity,
+            max_linear_velocity: config.max_linear_velocity,
+        });
+        let liveness = config
+            .neighbours
+            .iter()
+            .map(|&n| (n, Peer::new()))
+            .collect();
+        let config_authority = config.authority;
+        Ok(Self {
+            replication_channel: channels::replication(config.cluster_id),
+            interest: Interest::new(config.region, config.spread),
+            config,
+            sim,
+            transport,
+            inbox: Inbox::default(),
+            outgoing_ops: IdMap::default(),
+            op_timings: Vec::new(),
+            outgoing_contacts: IdMap::default(),
+            transfers: IdMap::default(),
+            handed: IdMap::default(),
+            released: IdMap::default(),
+            custom_proxy: None,
+            stats: ClusterStats::default(),
+            liveness,
+            last_states: IdMap::default(),
+            adopted: IdMap::default(),
+            transport_was_up: true,
+            free_running: false,
+            contact_merge: ContactMerge::default(),
+            outgoing_impulses: IdMap::default(),
+            settlement: Settlement::default(),
+            predictions: Predictions::default(),
+            policy: match config_authority {
+                AuthorityMode::Spatial(settings) => Some(Box::new(Spatial::new(settings))),
+                AuthorityMode::Scripted | AuthorityMode::Custom => None,
+            },
+        })
+    }
+
+    /// This cluster's id.
+    pub fn id(&self) -> ClusterId {
+        self.config.cluster_id
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ClusterConfig {
+        &self.config
+    }
+
+    /// The world, to read (states, roles, contacts).
+    pub fn sim(&self) -> &ClusterSim {
+        &self.sim
+    }
+
+    /// What the cluster has counted.
+    pub fn stats(&self) -> ClusterStats {
+        self.stats
+    }
+
+    /// What the transport has counted.
+    pub fn transport_stats(&self) -> seam_transport::Stats {
+        self.transport.stats()
+    }
+
+    /// Takes the stage times of the routed ops applied here since the last call (at most
+    /// [`MAX_OP_TIMINGS`] are kept between calls; older ones are counted in
+    /// [`ClusterStats::op_timings_dropped`]).
+    pub fn take_op_timings(&mut self) -> Vec<OpTiming> {
+        std::mem::take(&mut self.op_timings)
+    }
+
+    /// Carries on the world's tick count from `tick`: a pod restarted into a running world
+    /// resumes where the others are, so its frames' ticks stay in line with theirs. Call it
+    /// before the first tick.
+    pub fn resume_at(&mut self, tick: u64) {
+        self.sim.resume_at(tick);
+    }
+
+    /// Models the neighbour entities whose extent overlaps `region`, besides those the region,
+    /// spread and this cluster's own bodies call for, until tick `until` (inclusive; see
+    /// [`ClusterSim::tick`]). Queries in game code see only what the cluster models: watch the
+    /// reach of a query before it runs — an entity appears as a proxy once a replication frame
+    /// of its owner has been reconciled after this call, so at least
+    /// `replication_interval + 1` ticks ahead.
+    pub fn watch(&mut self, region: Region, until: u64) {
+        self.interest.watch(region, until);
+    }
+
+    /// Sets the policy asked for hand-offs at each replication frame (replacing the one
+    /// `ClusterConfig::authority` chose; see `crate::authority`).
+    pub fn set_authority_policy(&mut self, policy: Box<dyn AuthorityPolicy>) {
+        self.policy = Some(policy);
+    }
+
+    /// Stops asking the authority policy for hand-offs; game code's hand-offs and the return
+    /// of adopted entities still go. A pod about to stop calls it some ticks before its last
+    /// ([`DRAIN_S`] is enough on one host), so that every hand-off under way is taken before
+    /// its neighbours stop: a hand-off published in a pod's last tick reaches no one once they
+    /// have, and its entity ends owned by nobody.
+    pub fn stop_policy_handoffs(&mut self) {
+        self.policy = None;
+    }
+
+    /// Sets the hook that moves proxies in [`ProxyMode::Custom`].
+    pub fn set_custom_proxy(&mut self, proxy: Box<dyn CustomProxy>) {
+        self.custom_proxy = Some(proxy);
+    }
+
+    /// Adds an entity this cluster owns, with `role` (dynamic for what it simulates; Fixed or
+    /// kinematic for scenery it moves itself). Its state's `cluster_id` is set to this cluster.
+    pub fn spawn_owned(&mut self, state: &EntityState, role: BodyRole) -> Result<(), ClusterError> {
+        let state = EntityState {
+            cluster_id: self.id(),
+            ..*state
+        };
+        self.sim.spawn(&state, role)?;
+        Ok(())
+    }
+
+    /// Adds scenery: static level geometry (terrain, floors, walls) that every cluster loads
+    /// itself. It is a Fixed body owned by no cluster ([`ClusterId::SCENERY`]): never
+    /// replicated, never handed over, never adopted; writes on it are refused, and contacts
+    /// with it are nobody's to report. Every cluster of a world must add the same scenery.
+    pub fn spawn_scenery(&mut self, state: &EntityState) -> Result<(), ClusterError> {
+        let state = EntityState {
+            cluster_id: ClusterId::SCENERY,
+            ..*state
+        };
+        self.sim.spawn(&state, BodyRole::Fixed)?;
+        Ok(())
+    }
+
+    /// Gets the transport ready to publish this cluster's frames, so the first tick does not
+    /// pay for setting channels up (on shm: creating services and shared memory, milliseconds
+    /// per channel). Call it after spawning the entities the cluster starts with: the
+    /// replication channel gets room for a frame of them all, with a quarter to spare.
+    pub fn advertise(&mut self) -> Result<(), ClusterError> {
+        let me = self.id();
+        let owned = self
+            .sim
+            .entities()
+            .filter(|(_, info)| info.cluster_id == me)
+            .count();
+        let frame = ReplicationFrame {
+            from: me,
+            tick: 0,
+            states: Vec::new(),
+        };
+        let room = frame.max_encoded_len() + (owned + owned / 4) * wire::MAX_STATE_LEN;
+        self.transport.advertise(&self.replication_channel, room)?;
+        for &neighbour in &self.config.neighbours {
+            self.transport
+                .advertise(&channels::physics_events(neighbour), EVENTS_ROOM)?;
+        }
+        Ok(())
+    }
+
+    /// Hands an entity this cluster owns to a neighbour. It happens at the next replication
+    /// frame: that frame carries the entity's final pose and velocity with the new owner, this
+    /// cluster turns its body into a proxy, and the new owner turns its proxy into the body.
+    pub fn transfer_authority(
+        &mut self,
+        entity: EntityId,
+        to: ClusterId,
+    ) -> Result<(), ClusterError> {
+        let refuse = |reason| ClusterError::Transfer { entity, to, reason };
+        let info = self.sim.info(entity).ok_or(refuse("not in this world"))?;
+        if info.cluster_id != self.id() {
+            return Err(refuse("not owned by this cluster"));
+        }
+        if to == self.id() {
+            return Err(refuse("already owned here"));
+        }
+        if !self.config.neighbours.contains(&to) {
+            return Err(refuse("not a neighbour"));
+        }
+        if self.neighbour_status(to) == Some(NeighbourStatus::Dead) {
+            return Err(refuse("the neighbour is taken for dead (silent)"));
+        }
+        self.transfers.insert(entity, to);
+        Ok(())
+    }
+
+    /// One tick using whatever has arrived (free-running pods). A neighbour silent for more
+    /// than `neighbour_timeout_ticks` is taken for dead first (see [`NeighbourStatus`]).
+    pub fn tick(
+        &mut self,
+        user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
+    ) -> Result<(), ClusterError> {
+        self.free_running = true;
+        self.drain()?;
+        self.check_liveness();
+        let frames = self.inbox.take_all();
+        self.run(frames, user)
+    }
+
+    /// What this cluster knows of `neighbour`'s liveness (`None` for a non-neighbour).
+    pub fn neighbour_status(&self, neighbour: ClusterId) -> Option<NeighbourStatus> {
+        self.liveness.get(&neighbour).map(|peer| peer.status)
+    }
+
+    /// One tick in lock-step: waits (up to `timeout`) until every neighbour's frames from the
+    /// same tick have arrived, and uses exactly those, so runs are deterministic on any
+    /// transport.
+    pub fn tick_lockstep(
+        &mut self,
+        timeout: Duration,
+        user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
+    ) -> Result<(), ClusterError> {
+        self.free_running = false;
+        let tick = self.sim.tick();
+        if tick > 0 {
+            let replication = tick.is_multiple_of(self.config.replication_interval);
+            let deadline = Instant::now() + timeout;
+            self.drain()?;
+            while let Some((neighbour, what)) =
+                self.inbox
+                    .missing(tick, &self.config.neighbours, replication)
+            {
+                let now = Instant::now();
+                if now >= deadline {
+                    return Err(ClusterError::NeighbourSilent {
+                        neighbour,
+                        what,
+                        tick,
+                        waited_ms: timeout.as_millis() as u64,
+                    });
+                }
+                if let Some(message) = self.transport.receive_timeout(deadline - now)? {
+                    let received_ns = monotonic_ns();
+                    let frame = decode_frame(message.channel, message.payload);
+                    self.file(frame, received_ns);
+                }
+                self.drain()?;
+            }
+        }
+        let frames = self.inbox.take_tick(tick, &self.config.neighbours);
+        self.run(frames, user)
+    }
+
+    /// Waits up to `timeout` for a frame to arrive, sleeping on the transport's wake-up rather
+    /// than spinning, and keeps it (with anything else that has arrived) for the next tick.
+    /// Returns whether anything arrived. Free-running pods call this between ticks, so frames
+    /// are taken off the transport as they come and stamped "received" when they arrive.
+    pub fn wait(&mut self, timeout: Duration) -> Result<bool, ClusterError> {
+        self.free_running = true;
+        let Some(message) = self.transport.receive_timeout(timeout)? else {
+            return Ok(false);
+        };
+        let received_ns = monotonic_ns();
+        let frame = decode_frame(message.channel, message.payload);
+        self.file(frame, received_ns);
+        self.drain()?;
+        Ok(true)
+    }
+
+    fn run(
+        &mut self,
+        frames: TickFrames,
+        user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
+    ) -> Result<(), ClusterError> {
+        // Reconcile the world with what the neighbours replicated.
+        self.interest.expire(self.sim.tick());
+        let keep_last = !self.config.world.is_empty();
+        for frame in frames.replication {
+            self.reconcile(&frame);
+            if keep_last {
+                self.last_states.insert(frame.from, frame.states);
+            }
+        }
+        // Each contact once per side (see `crate::contact_merge`): this world's own events,
+        // then the neighbours' reports.
+        let tick = self.sim.tick();
+        let merge = &mut self.contact_merge;
+        merge.expire(tick);
+        let mut merged = 0;
+        self.sim.retain_contacts(|c| {
+            let new = merge.is_new(c, tick, true);
+            merged += u64::from(!new);
+            new
+        });
+        let mut reported = Vec::new();
+        for (frame, _) in &frames.events {
+            for c in &frame.contacts {
+                self.stats.contacts_received += 1;
+                let event = ContactEvent {
+                    a: c.a,
+                    b: c.b,
+                    started: c.started,
+                    impulse: c.impulse,
+                    normal: c.normal,
+                    reported_by: Some(frame.from),
+                };
+                if merge.is_new(&event, tick, false) {
+                    reported.push(event);
+                } else {
+                    merged += 1;
+                }
+            }
+        }
+        self.stats.contacts_merged += merged;
+        self.sim.add_contacts(reported);
+
+        // User code; writes on remote-owned entities go to the outbox.
+        let mut outbox = Outbox {
+            neighbours: &self.config.neighbours,
+            ops: &mut self.outgoing_ops,
+            tick: self.sim.tick(),
+        };
+        self.sim.run_user(&mut outbox, user);
+        let tick = self.sim.tick();
+        if self.config.coupling {
+            self.predictions
+                .routed(self.outgoing_ops.values().flatten(), tick);
+        }
+
+        // Contacts across the seam settled (see `crate::settle`), then routed writes received,
+        // all applied just before the step.
+        self.settle_seam_impulses(&frames.events, tick);
+        self.apply_routed_ops(&frames.events, tick);
+
+        if self.config.coupling && self.config.proxy_mode != ProxyMode::Custom {
+            let changes = self.sim.couple_proxies(self.proxy_role());
+            self.stats.proxies_coupled += u64::from(changes.coupled);
+            let interval = self.config.replication_interval.max(1);
+            self.stats.impulses_predicted += self.predictions.show(&mut self.sim, tick, interval);
+        }
+        self.sim.step();
+        self.report_contacts();
+        self.report_seam_impulses();
+        self.publish()?;
+        self.stats.ticks += 1;
+        Ok(())
+    }
+}
+
+/// Whether every component of `v` is within `limit` in magnitude (NaN is not).
+fn within(v: [f32; 3], limit: f32) -> bool {
+    v.iter().all(|c| c.abs() <= limit)
+}

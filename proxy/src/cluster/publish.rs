@@ -1,0 +1,179 @@
+//! Publishing a tick: the replication frame (after asking the authority policy), and one
+//! physics-events frame per neighbour with its routed ops, contacts and impulses.
+
+use seam_sim::BodyRole;
+use seam_sim::wire::{self, EntityState, PhysicsEventsFrame, ReplicationFrame};
+use seam_transport::Transport;
+
+use crate::authority::{AuthorityView, NeighbourView};
+use crate::channels;
+use crate::clock::monotonic_ns;
+use crate::error::ClusterError;
+
+use super::{Cluster, NeighbourStatus, RELEASED_FOR};
+
+/// Encodes `frame` straight into the transport's buffer (on shm, the loaned sample); returns
+/// the encoded length.
+pub(super) fn publish_frame<T: serde::Serialize>(
+    transport: &mut dyn Transport,
+    channel: &str,
+    frame: &T,
+) -> Result<usize, ClusterError> {
+    let len = wire::encoded_len(frame);
+    transport.publish_with(channel, len, &mut |buffer| {
+        wire::encode_into(frame, buffer).ok()
+    })?;
+    Ok(len)
+}
+
+impl Cluster {
+    /// Asks the authority policy which of the `owned` entities to hand over in this frame, and
+    /// queues those hand-offs that are valid and not already queued by game code.
+    pub(super) fn ask_policy(&mut self, owned: &[(EntityState, BodyRole)]) {
+        let Some(policy) = self.policy.as_mut() else {
+            return;
+        };
+        let neighbours: Vec<NeighbourView> = self
+            .config
+            .neighbours
+            .iter()
+            .map(|&id| NeighbourView {
+                id,
+                region: self
+                    .config
+                    .world
+                    .iter()
+                    .find(|c| c.id == id)
+                    .map(|c| c.region),
+                alive: self
+                    .liveness
+                    .get(&id)
+                    .is_none_or(|peer| peer.status != NeighbourStatus::Dead),
+            })
+            .collect();
+        // Adopted entities stay in custody until their owner returns and gets them back.
+        let custody: Vec<(EntityState, BodyRole)>;
+        let owned = if self.adopted.is_empty() {
+            owned
+        } else {
+            custody = owned
+                .iter()
+                .filter(|(state, _)| !self.adopted.contains_key(&state.id))
+                .copied()
+                .collect();
+            &custody
+        };
+        let view = AuthorityView {
+            cluster: self.config.cluster_id,
+            tick: self.sim.tick(),
+            region: self.config.region,
+            lookahead_s: self.config.dt * self.config.replication_interval.max(1) as f32,
+            neighbours: &neighbours,
+            owned,
+        };
+        let mut handoffs = Vec::new();
+        policy.decide(&view, &mut handoffs);
+        for (entity, to) in handoffs {
+            if self.transfers.contains_key(&entity) {
+                continue;
+            }
+            if self.transfer_authority(entity, to).is_ok() {
+                self.stats.handoffs_by_policy += 1;
+            }
+        }
+    }
+
+    /// Publishes this tick's replication frame (every `replication_interval` ticks, with any
+    /// hand-offs) and one events frame per neighbour.
+    pub(super) fn publish(&mut self) -> Result<(), ClusterError> {
+        let me = self.config.cluster_id;
+        let tick = self.sim.tick();
+        if tick.is_multiple_of(self.config.replication_interval) {
+            let owned: Vec<(EntityState, BodyRole)> = self
+                .sim
+                .entities()
+                .filter(|(_, info)| info.cluster_id == me)
+                .filter_map(|(id, info)| self.sim.state(id).map(|s| (s, info.role)))
+                .collect();
+            self.ask_policy(&owned);
+            let mut states: Vec<EntityState> = owned.into_iter().map(|(s, _)| s).collect();
+            let mut handing = Vec::new();
+            for state in &mut states {
+                if let Some(&to) = self.transfers.get(&state.id) {
+                    // The new owner rides with the final pose and velocity, read before the body
+                    // becomes a proxy (a Fixed body loses its velocity), and the next epoch.
+                    state.cluster_id = to;
+                    state.epoch += 1;
+                    handing.push(*state);
+                }
+            }
+            let (sweep_s, spread) = (self.sweep_s(), self.config.spread);
+            self.interest.follow(
+                states.iter().filter(|s| s.cluster_id == me),
+                sweep_s,
+                spread,
+            );
+            // Earlier hand-offs not yet answered ride along again.
+            states.extend(self.handed.values().copied());
+            let frame = ReplicationFrame {
+                from: me,
+                tick,
+                states,
+            };
+            self.stats.replication_bytes +=
+                publish_frame(self.transport.as_mut(), &self.replication_channel, &frame)? as u64;
+            let role = self.proxy_role();
+            self.transfers.clear();
+            for handed in handing {
+                let entity = handed.id;
+                self.adopted.swap_remove(&entity);
+                self.sim
+                    .set_authority(entity, handed.cluster_id, handed.epoch)?;
+                self.sim.set_role(entity, role)?;
+                self.handed.insert(entity, handed);
+                self.released.insert(entity, (handed.epoch, tick));
+                self.stats.handoffs_out += 1;
+            }
+            self.released
+                .retain(|_, &mut (_, at)| tick.saturating_sub(at) <= RELEASED_FOR);
+        }
+        for i in 0..self.config.neighbours.len() {
+            let neighbour = self.config.neighbours[i];
+            let mut ops = self
+                .outgoing_ops
+                .get_mut(&neighbour)
+                .map(std::mem::take)
+                .unwrap_or_default();
+            if self.neighbour_status(neighbour) == Some(NeighbourStatus::Dead) {
+                // Taken for dead: its entities are adopted or gone, so writes queued for it
+                // (before it was) have no owner there. The empty frame still tells it, should it
+                // be alive after all, that this cluster is.
+                self.stats.ops_dropped_owner_dead += ops.len() as u64;
+                ops.clear();
+            }
+            let frame = PhysicsEventsFrame {
+                from: me,
+                tick,
+                published_ns: monotonic_ns(),
+                ops,
+                contacts: self
+                    .outgoing_contacts
+                    .get_mut(&neighbour)
+                    .map(std::mem::take)
+                    .unwrap_or_default(),
+                impulses: self
+                    .outgoing_impulses
+                    .get_mut(&neighbour)
+                    .map(std::mem::take)
+                    .unwrap_or_default(),
+            };
+            self.stats.ops_routed += frame.ops.len() as u64;
+            self.stats.events_bytes += publish_frame(
+                self.transport.as_mut(),
+                &channels::physics_events(neighbour),
+                &frame,
+            )? as u64;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,188 @@
+//! Bringing the world in line with a neighbour's replication frame: hand-offs in, proxies
+//! spawned, moved and despawned.
+
+use seam_sim::BodyRole;
+use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap, ReplicationFrame};
+
+use crate::config::ProxyMode;
+use crate::dead_reckoning;
+use crate::interest::extent;
+
+use super::{Cluster, within};
+
+/// The role an entity's owner gives its body: dynamic if it is simulated, else Fixed (a body
+/// its old owner moved itself stands still until game code here moves it).
+pub(super) fn owner_role(state: &EntityState) -> BodyRole {
+    if state.body.simulated {
+        BodyRole::Dynamic
+    } else {
+        BodyRole::Fixed
+    }
+}
+
+impl Cluster {
+    pub(super) fn proxy_role(&self) -> BodyRole {
+        match self.config.proxy_mode {
+            ProxyMode::Fixed => BodyRole::Fixed,
+            ProxyMode::KinematicVelocityBased => BodyRole::KinematicVelocityBased,
+            ProxyMode::Custom => BodyRole::KinematicPositionBased,
+        }
+    }
+
+    /// How long a replicated pose stands before the next frame can replace it, seconds: the
+    /// sweep an extent is grown by (see `crate::interest`).
+    pub(super) fn sweep_s(&self) -> f32 {
+        (self.config.replication_interval.max(1) + 1) as f32 * self.config.dt
+    }
+
+    pub(super) fn visible(&self, state: &EntityState) -> bool {
+        self.interest.covers(&extent(state, self.sweep_s()))
+    }
+
+    /// Brings the world in line with one neighbour's replication frame.
+    pub(super) fn reconcile(&mut self, frame: &ReplicationFrame) {
+        let (me, from) = (self.config.cluster_id, frame.from);
+        let mut listed: IdMap<EntityId, ()> = IdMap::default();
+        // A hand-off this cluster made to `from` is answered once `from` mentions the entity.
+        if self.handed.values().any(|handed| handed.cluster_id == from) {
+            let mentioned: IdMap<EntityId, ()> = frame.states.iter().map(|s| (s.id, ())).collect();
+            self.handed
+                .retain(|id, handed| handed.cluster_id != from || !mentioned.contains_key(id));
+        }
+        for state in &frame.states {
+            let limit = self.config.max_magnitude;
+            let absurd = ![state.position, state.linvel, state.angvel]
+                .into_iter()
+                .all(|v| within(v, limit));
+            if absurd || seam_sim::check_state(state).is_err() {
+                self.stats.states_rejected += 1;
+                continue;
+            }
+            let known = self.sim.info(state.id).map(|i| (i.cluster_id, i.epoch));
+            let outcome = match known {
+                // Handed (back) to this cluster, which owns it already — a repeat, or a return
+                // to a pod that was only stalled and kept simulating it: nothing to do but
+                // learn the epoch.
+                Some((owner, epoch)) if owner == me && state.cluster_id == me => {
+                    if state.epoch > epoch {
+                        let _ = self.sim.set_authority(state.id, me, state.epoch);
+                    }
+                    Ok(())
+                }
+                // Older than what this world knows (a hand-off repeated after the entity moved
+                // on): not news.
+                Some((_, epoch)) if state.epoch < epoch => Ok(()),
+                // A repeat of the hand-off this world already applied.
+                Some((owner, epoch))
+                    if owner != from && state.epoch == epoch && state.cluster_id == owner =>
+                {
+                    Ok(())
+                }
+                // Only an entity's owner speaks for it: a frame claiming another cluster's
+                // (or this cluster's) entity is ignored.
+                Some((owner, _)) if owner != from => Err(()),
+                Some(_) => {
+                    listed.insert(state.id, ());
+                    self.update_known(state, from)
+                }
+                None if state.cluster_id == me => {
+                    let released = self.released.get(&state.id);
+                    if released.is_some_and(|&(epoch, _)| state.epoch <= epoch) {
+                        // A repeat of a hand-off to this cluster from before it gave the entity
+                        // away again.
+                        Ok(())
+                    } else {
+                        self.take_over_unseen(state)
+                    }
+                }
+                None if state.cluster_id == from && self.visible(state) => {
+                    listed.insert(state.id, ());
+                    let role = self.proxy_role();
+                    self.sim
+                        .spawn(state, role)
+                        .map(|()| self.stats.proxies_spawned += 1)
+                        .map_err(|_| ())
+                }
+                None => Ok(()),
+            };
+            if outcome.is_err() {
+                self.stats.states_rejected += 1;
+            }
+        }
+        // Proxies of this neighbour that its frame no longer lists have left (or were
+        // destroyed): nothing else is modelled.
+        let departed: Vec<EntityId> = self
+            .sim
+            .entities()
+            .filter(|(id, info)| info.cluster_id == from && !listed.contains_key(id))
+            .filter(|(id, _)| !self.handed.contains_key(id))
+            .map(|(id, _)| id)
+            .collect();
+        for id in departed {
+            if self.sim.despawn(id).is_ok() {
+                self.stats.proxies_despawned += 1;
+            }
+        }
+    }
+
+    /// A state from the current owner of an entity this world already has.
+    pub(super) fn update_known(&mut self, state: &EntityState, from: ClusterId) -> Result<(), ()> {
+        let me = self.config.cluster_id;
+        if state.cluster_id == me {
+            // Handed to this cluster: the proxy becomes the body, in place, with the final pose
+            // and velocity the old owner sent.
+            self.sim
+                .set_role(state.id, owner_role(state))
+                .map_err(|_| ())?;
+            self.sim.apply_state(state).map_err(|_| ())?;
+            self.stats.handoffs_in += 1;
+            return Ok(());
+        }
+        if state.cluster_id != from {
+            // Handed to a third cluster: writes are routed there from now on.
+            self.sim
+                .set_authority(state.id, state.cluster_id, state.epoch)
+                .map_err(|_| ())?;
+        }
+        if !self.visible(state) {
+            self.sim.despawn(state.id).map_err(|_| ())?;
+            self.stats.proxies_despawned += 1;
+            return Ok(());
+        }
+        self.update_proxy(state)
+    }
+
+    /// Handed to this cluster an entity it had no proxy of: it starts as the body.
+    pub(super) fn take_over_unseen(&mut self, state: &EntityState) -> Result<(), ()> {
+        self.sim.spawn(state, owner_role(state)).map_err(|_| ())?;
+        self.stats.handoffs_in += 1;
+        Ok(())
+    }
+
+    pub(super) fn update_proxy(&mut self, state: &EntityState) -> Result<(), ()> {
+        self.predictions.state_applied(state.id);
+        let coupled = self
+            .sim
+            .info(state.id)
+            .is_some_and(|info| info.role == BodyRole::Dynamic);
+        if coupled {
+            // Simulated here for now (see `seam_sim::coupling`): set to what its owner says.
+            return self.sim.apply_state(state).map_err(|_| ());
+        }
+        match self.config.proxy_mode {
+            ProxyMode::Fixed => self.sim.apply_state(state).map_err(|_| ()),
+            ProxyMode::KinematicVelocityBased => {
+                // Aim where the entity will be at the next update, so the proxy moves with it in
+                // between (see `crate::dead_reckoning`).
+                let now = self.sim.state(state.id).ok_or(())?;
+                let ticks = self.config.replication_interval.max(1) as f32;
+                let aim = dead_reckoning::aim(&now, state, self.config.dt * ticks, ticks);
+                self.sim.apply_state(&aim).map_err(|_| ())
+            }
+            ProxyMode::Custom => match self.custom_proxy.as_mut() {
+                Some(proxy) => proxy.update(&mut self.sim, state).map_err(|_| ()),
+                None => self.sim.apply_state(state).map_err(|_| ()),
+            },
+        }
+    }
+}
