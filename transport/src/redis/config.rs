@@ -1,0 +1,162 @@
+//! The Redis backend's settings: the URL and what it carries, the server it names, and
+//! passwords kept out of everything printed.
+
+use std::time::Duration;
+
+use crate::error::OpenError;
+
+use super::socket::Socket;
+
+/// Settings of the Redis backend beyond what redis-rs reads from the URL.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RedisConfig {
+    /// Largest payload, in bytes, a publish accepts and a receive takes.
+    pub max_payload: usize,
+    /// Time allowed to connect, and for the server to answer a command.
+    pub timeout: Duration,
+    /// Whether a lost connection is re-established (see the module docs) or is an error.
+    pub reconnect: bool,
+    /// Time a reconnect attempt may take.
+    pub connect_timeout: Duration,
+}
+
+impl Default for RedisConfig {
+    fn default() -> Self {
+        Self {
+            max_payload: 4 << 20,
+            timeout: Duration::from_secs(5),
+            reconnect: true,
+            connect_timeout: Duration::from_millis(250),
+        }
+    }
+}
+
+/// The server, as the URL names it.
+pub(super) struct Endpoint {
+    pub(super) client: redis::Client,
+    /// `host:port` or socket path, for messages (never the password).
+    pub(super) addr: String,
+    pub(super) username: Option<String>,
+    pub(super) password: Option<String>,
+}
+
+impl Endpoint {
+    /// The settings and the server `url` names (its query's own keys taken out; the rest left
+    /// for redis-rs).
+    pub(super) fn from_url(url: &str) -> Result<(RedisConfig, Endpoint), OpenError> {
+        let shown = redact_url(url);
+        let invalid = |reason: String| OpenError::InvalidUrl {
+            url: shown.clone(),
+            reason,
+        };
+        let (base, query) = url.split_once('?').unwrap_or((url, ""));
+        let mut config = RedisConfig::default();
+        let mut passed = Vec::new();
+        for pair in query.split('&').filter(|p| !p.is_empty()) {
+            let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
+            let number = || {
+                value
+                    .parse::<u64>()
+                    .ok()
+                    .filter(|n| *n > 0)
+                    .ok_or_else(|| invalid(format!("`{key}` must be a positive whole number")))
+            };
+            match key {
+                "max_payload" => config.max_payload = number()? as usize,
+                "timeout_ms" => config.timeout = Duration::from_millis(number()?),
+                "connect_ms" => config.connect_timeout = Duration::from_millis(number()?),
+                "reconnect" => {
+                    config.reconnect = match value {
+                        "1" | "true" => true,
+                        "0" | "false" => false,
+                        _ => return Err(invalid("`reconnect` must be 0 or 1".to_owned())),
+                    }
+                }
+                _ => passed.push(pair),
+            }
+        }
+        let redis_url = if passed.is_empty() {
+            base.to_owned()
+        } else {
+            format!("{base}?{}", passed.join("&"))
+        };
+        let client = redis::Client::open(redis_url.as_str()).map_err(|e| invalid(e.to_string()))?;
+        let info = client.get_connection_info().clone();
+        let endpoint = Endpoint {
+            addr: info.addr().to_string(),
+            username: info.redis_settings().username().map(str::to_owned),
+            password: info.redis_settings().password().map(str::to_owned),
+            client,
+        };
+        Ok((config, endpoint))
+    }
+
+    /// `text` with the password replaced by `***`.
+    pub(super) fn scrub(&self, text: String) -> String {
+        match &self.password {
+            Some(p) if !p.is_empty() => text.replace(p.as_str(), "***"),
+            _ => text,
+        }
+    }
+
+    /// The publishing connection and the subscriber's socket, each given `timeout` to connect.
+    pub(super) fn connect(
+        &self,
+        timeout: Duration,
+        command_timeout: Duration,
+    ) -> Result<(redis::Connection, Socket), OpenError> {
+        let publisher = self
+            .client
+            .get_connection_with_timeout(timeout)
+            .map_err(|e| {
+                let reason = self.scrub(e.to_string());
+                if e.kind() == redis::ErrorKind::AuthenticationFailed
+                    || reason.contains("WRONGPASS")
+                    || reason.contains("NOAUTH")
+                {
+                    OpenError::AuthenticationFailed {
+                        addr: self.addr.clone(),
+                        reason,
+                    }
+                } else {
+                    OpenError::Unreachable {
+                        addr: self.addr.clone(),
+                        reason,
+                    }
+                }
+            })?;
+        let unreachable = |reason: String| OpenError::Unreachable {
+            addr: self.addr.clone(),
+            reason,
+        };
+        publisher
+            .set_read_timeout(Some(command_timeout))
+            .and_then(|()| publisher.set_write_timeout(Some(command_timeout)))
+            .map_err(|e| unreachable(e.to_string()))?;
+        let info = self.client.get_connection_info();
+        let socket =
+            Socket::connect(info.addr(), timeout).map_err(|e| unreachable(e.to_string()))?;
+        Ok((publisher, socket))
+    }
+}
+
+/// Replaces the password of `url` (if any) with `***`.
+pub fn redact_url(url: &str) -> String {
+    let Some(scheme_end) = url.find("://") else {
+        return url.to_owned();
+    };
+    let rest = &url[scheme_end + 3..];
+    let authority_end = rest.find('/').unwrap_or(rest.len());
+    match rest[..authority_end].rfind('@') {
+        Some(at) => match rest[..at].find(':') {
+            Some(colon) => format!(
+                "{}{}:***{}",
+                &url[..scheme_end + 3],
+                &rest[..colon],
+                &rest[at..]
+            ),
+            None => format!("{}***{}", &url[..scheme_end + 3], &rest[at..]),
+        },
+        None => url.to_owned(),
+    }
+}

@@ -1,0 +1,226 @@
+//! What the subscribed socket brings: pub/sub replies parsed in place, messages checked
+//! against their envelope, and the message returned last.
+
+use std::ops::Range;
+
+use crate::Message;
+use crate::envelope::{Envelope, Intake};
+use crate::error::ReceiveError;
+
+use super::RedisTransport;
+use super::resp::{self, Frame, Item, RespError};
+
+pub(super) struct EarlyMessage {
+    pub(super) channel: String,
+    pub(super) pattern: Option<String>,
+    pub(super) payload: Range<usize>,
+    pub(super) wire: Vec<u8>,
+}
+
+/// Where the last returned message lives.
+pub(super) enum Current {
+    Buffered {
+        channel: Range<usize>,
+        pattern: Option<Range<usize>>,
+        payload: Range<usize>,
+    },
+    Early(EarlyMessage),
+}
+
+/// What a parsed reply is.
+pub(super) enum Reply<'a> {
+    Message {
+        channel: &'a [u8],
+        pattern: Option<&'a [u8]>,
+        wire: &'a [u8],
+    },
+    Confirmation {
+        kind: &'a [u8],
+        channel: &'a [u8],
+    },
+    ServerError(&'a [u8]),
+    Other,
+}
+
+pub(super) fn classify<'a>(frame: &Frame<'a>) -> Reply<'a> {
+    let bulk = |i: usize| match frame.items[i] {
+        Item::Bulk(bytes) => Some(bytes),
+        _ => None,
+    };
+    if !frame.is_array {
+        return match frame.items[0] {
+            Item::Error(text) => Reply::ServerError(text),
+            _ => Reply::Other,
+        };
+    }
+    match (frame.len, bulk(0)) {
+        (3, Some(b"message")) => match (bulk(1), bulk(2)) {
+            (Some(channel), Some(wire)) => Reply::Message {
+                channel,
+                pattern: None,
+                wire,
+            },
+            _ => Reply::Other,
+        },
+        (4, Some(b"pmessage")) => match (bulk(1), bulk(2), bulk(3)) {
+            (Some(pattern), Some(channel), Some(wire)) => Reply::Message {
+                channel,
+                pattern: Some(pattern),
+                wire,
+            },
+            _ => Reply::Other,
+        },
+        (3, Some(kind)) => match bulk(1) {
+            Some(channel) => Reply::Confirmation { kind, channel },
+            None => Reply::Other,
+        },
+        _ => Reply::Other,
+    }
+}
+
+/// Checks a message's envelope and counts it; returns the payload range inside `wire` if valid.
+pub(super) fn accept(intake: &mut Intake, channel: &[u8], wire: &[u8]) -> Option<Range<usize>> {
+    match std::str::from_utf8(channel).ok().zip(Envelope::split(wire)) {
+        Some((channel, (envelope, payload))) => {
+            let key = intake.channel_key(channel);
+            intake.accept(key, &envelope);
+            Some(range_in(wire, payload))
+        }
+        None => {
+            intake.malformed();
+            None
+        }
+    }
+}
+
+/// Offset range of `part` inside `whole` (`part` must be a sub-slice of `whole`).
+pub(super) fn range_in(whole: &[u8], part: &[u8]) -> Range<usize> {
+    let start = part.as_ptr() as usize - whole.as_ptr() as usize;
+    start..start + part.len()
+}
+
+impl RedisTransport {
+    /// Moves the next valid message into `self.current`; returns whether there was one.
+    pub(super) fn advance(&mut self) -> Result<bool, ReceiveError> {
+        match self.advance_connected() {
+            Err(_) if self.config.reconnect => {
+                self.went_down();
+                Ok(false)
+            }
+            result => result,
+        }
+    }
+
+    pub(super) fn advance_connected(&mut self) -> Result<bool, ReceiveError> {
+        self.current = None;
+        if self.config.reconnect && !self.up() {
+            return Ok(false);
+        }
+        while let Some(mut early) = self.early.pop_front() {
+            if let Some(payload) = accept(&mut self.intake, early.channel.as_bytes(), &early.wire) {
+                early.payload = payload;
+                self.current = Some(Current::Early(early));
+                return Ok(true);
+            }
+        }
+        let disconnected = |addr: &str, reason: String| ReceiveError::Disconnected {
+            addr: addr.to_owned(),
+            reason,
+        };
+        let (max_bulk, frame_limit) = (self.max_bulk(), self.frame_limit());
+        loop {
+            if self.discard > 0 {
+                self.skip_discarded();
+                if self.discard > 0 {
+                    match self.socket.fill(None, frame_limit) {
+                        Ok(true) => continue,
+                        Ok(false) => return Ok(false),
+                        Err(e) => return Err(disconnected(&self.addr, e.to_string())),
+                    }
+                }
+            }
+            let start = self.socket.start;
+            let parsed = match resp::parse(self.socket.unparsed(), max_bulk) {
+                Ok(Some((frame, used))) => match classify(&frame) {
+                    Reply::Message {
+                        channel,
+                        pattern,
+                        wire,
+                    } => {
+                        let buf = &self.socket.buf;
+                        Ok(Some((
+                            used,
+                            Some((
+                                range_in(buf, channel),
+                                pattern.map(|p| range_in(buf, p)),
+                                range_in(buf, wire),
+                            )),
+                        )))
+                    }
+                    _ => Ok(Some((used, None))),
+                },
+                Ok(None) => Ok(None),
+                Err(e) => Err(e),
+            };
+            match parsed {
+                Ok(Some((used, message))) => {
+                    self.socket.consume(used);
+                    let Some((channel, pattern, wire)) = message else {
+                        continue;
+                    };
+                    debug_assert!(channel.start >= start);
+                    let buf = &self.socket.buf;
+                    let payload =
+                        accept(&mut self.intake, &buf[channel.clone()], &buf[wire.clone()]);
+                    if let Some(payload) = payload {
+                        let payload = wire.start + payload.start..wire.start + payload.end;
+                        self.current = Some(Current::Buffered {
+                            channel,
+                            pattern,
+                            payload,
+                        });
+                        return Ok(true);
+                    }
+                }
+                Ok(None) => match self.socket.fill(None, frame_limit) {
+                    Ok(true) => {}
+                    Ok(false) => return Ok(false),
+                    Err(e) => return Err(disconnected(&self.addr, e.to_string())),
+                },
+                Err(RespError::TooLarge { skip }) => {
+                    self.intake.malformed();
+                    self.discard = skip;
+                }
+                Err(RespError::Protocol(what)) => {
+                    return Err(disconnected(&self.addr, format!("protocol error: {what}")));
+                }
+            }
+        }
+    }
+
+    pub(super) fn current_message(&self) -> Option<Message<'_>> {
+        // Channel names were checked as UTF-8 in `accept`; patterns come from the server as sent.
+        fn text(bytes: &[u8]) -> &str {
+            std::str::from_utf8(bytes).unwrap_or("")
+        }
+        match self.current.as_ref()? {
+            Current::Buffered {
+                channel,
+                pattern,
+                payload,
+            } => {
+                let buf = &self.socket.buf;
+                Some(Message {
+                    channel: text(&buf[channel.clone()]),
+                    pattern: pattern.clone().map(|p| text(&buf[p])),
+                    payload: &buf[payload.clone()],
+                })
+            }
+            Current::Early(early) => Some(Message {
+                channel: &early.channel,
+                pattern: early.pattern.as_deref(),
+                payload: &early.wire[early.payload.clone()],
+            }),
+        }
+    }
+}
