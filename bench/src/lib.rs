@@ -4,7 +4,9 @@
 //!
 //! # Layout
 //!
-//! - `src/main.rs` — the `seam` CLI (clap): subcommands and their flags.
+//! - `src/bin/seam/` — the `seam` CLI: `cli.rs` (the commands and their flags, clap),
+//!   `commands.rs` (what each does beyond its module: progress, printing, exit status),
+//!   `main.rs` (dispatch).
 //! - [`run`] — `seam run`: starts one pod per cluster of a scene, shows progress, merges their
 //!   reports.
 //! - [`chaos`] — `seam chaos`: the pods under faults on a schedule (kills, stops, Redis

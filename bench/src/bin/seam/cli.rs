@@ -1,14 +1,9 @@
-//! `seam` — run and measure seam. See `seam --help`.
-
-use std::process::ExitCode;
+//! `seam`'s command line: the commands and their flags, as clap reads them.
 
 use clap::{Parser, Subcommand};
-use seam_bench::accuracy::{self, TrialSettings};
-use seam_bench::chaos::ChaosPlan;
-use seam_bench::node::{self, AuthorityArgs, NodeArgs, ProxyModeArg};
-use seam_bench::ops::{self, OpsPlan};
-use seam_bench::ping::{self, PingPlan, WaitMode};
-use seam_bench::run::{self, RunPlan};
+use seam_bench::accuracy::TrialSettings;
+use seam_bench::node::{AuthorityArgs, NodeArgs, ProxyModeArg};
+use seam_bench::ping::WaitMode;
 
 #[derive(Parser)]
 #[command(
@@ -20,13 +15,13 @@ use seam_bench::run::{self, RunPlan};
         host, no server needed; settings as `shm?prefix=NAME&buffer=N&max_payload=BYTES`), \
         `local` (iceoryx2 inside one process) or `redis://[user:password@]host:port`."
 )]
-struct Cli {
+pub(crate) struct Cli {
     #[command(subcommand)]
-    command: Command,
+    pub(crate) command: Command,
 }
 
 #[derive(Subcommand)]
-enum Command {
+pub(crate) enum Command {
     /// Run a scene as co-hosted cluster pods, one process per cluster, and report (the main job).
     ///
     /// Starts one `seam node` per cluster of the scene on this host, over shared memory unless
@@ -280,7 +275,7 @@ enum Command {
 
 /// The settings `seam compare` tries.
 #[derive(clap::Args)]
-struct Knobs {
+pub(crate) struct Knobs {
     /// How neighbour entities are modelled.
     #[arg(long, value_enum, default_value_t = ProxyModeArg::Fixed)]
     proxy_mode: ProxyModeArg,
@@ -312,7 +307,7 @@ struct Knobs {
 }
 
 impl Knobs {
-    fn settings(&self) -> TrialSettings {
+    pub(crate) fn settings(&self) -> TrialSettings {
         TrialSettings {
             proxy_mode: self.proxy_mode.into(),
             authority: self.authority,
@@ -327,136 +322,21 @@ impl Knobs {
     }
 }
 
-/// `seam compare`: one trial per scene; with `--markdown`, one table with a row each.
-fn compare(
-    scenes: &[std::path::PathBuf],
-    settings: &TrialSettings,
-    trace: Option<&str>,
-    output: Output,
-) -> Result<(), String> {
-    let mut results = Vec::new();
-    for path in scenes {
-        let scene = seam_bench::scene::load(path).map_err(|e| e.to_string())?;
-        let result = accuracy::run_trial(&scene, settings, &run::fresh_run_id(), trace)?;
-        if output.json {
-            println!(
-                "{}",
-                serde_json::to_string_pretty(&result).expect("results serialise")
-            );
-        } else if !output.markdown {
-            print!("{}", accuracy::table(&result));
-        }
-        results.push(result);
-    }
-    if output.markdown {
-        print!("{}", accuracy::markdown(&results));
-    }
-    Ok(())
-}
-
-/// `seam sweep`.
-fn sweep(
-    scenes: Vec<std::path::PathBuf>,
-    quick: bool,
-    ticks: Option<u64>,
-    transports: Vec<String>,
-    rate: f64,
-    out: &std::path::Path,
-) -> Result<(), String> {
-    let paths = if scenes.is_empty() {
-        [
-            "gallery",
-            "corridor",
-            "stacks",
-            "light-on-heavy",
-            "equal-masses",
-            "seam-stack",
-            "grid",
-            "crossfire",
-        ]
-        .iter()
-        .map(|name| format!("bench/scenes/{name}.toml").into())
-        .collect()
-    } else {
-        scenes
-    };
-    let scenes = paths
-        .iter()
-        .map(|p| {
-            seam_bench::scene::load(p)
-                .map_err(|e| format!("{e} (run from the repository root, or pass --scene FILE)"))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let scenes: Vec<_> = paths.into_iter().zip(scenes).collect();
-    let mut grid = if quick {
-        seam_bench::sweep::SweepGrid::quick()
-    } else {
-        seam_bench::sweep::SweepGrid::full()
-    };
-    for transport in transports
-        .iter()
-        .filter(|t| t.as_str() != "none")
-        .map(|t| expand_transport(t))
-    {
-        match seam_transport::open(&transport) {
-            Ok(_) => grid.transports.push(transport),
-            Err(e) => eprintln!("seam sweep: leaving out the transport axis on {e}"),
-        }
-    }
-    let exe = std::env::current_exe().map_err(|e| format!("cannot find seam itself: {e}"))?;
-    let free = accuracy::FreeRunning {
-        rate,
-        node_command: vec![exe.into(), "node".into()],
-    };
-    let started = std::time::Instant::now();
-    let results = seam_bench::sweep::run(&scenes, &grid, ticks, &free, |done, total, line| {
-        let width = 30;
-        let filled = done * width / total.max(1);
-        eprintln!(
-            "[{}{}] {done}/{total} {:.0} s  {line}",
-            "#".repeat(filled),
-            ".".repeat(width - filled),
-            started.elapsed().as_secs_f64()
-        );
-    })?;
-    for path in seam_bench::sweep::write(&results, out)? {
-        println!("wrote {}", path.display());
-    }
-    Ok(())
-}
-
-/// `redis` alone is shorthand for the local default server.
-fn expand_transport(name: &str) -> String {
-    match name {
-        "redis" => "redis://127.0.0.1:6379".to_owned(),
-        other => other.to_owned(),
-    }
-}
-
-/// A progress printer for a run of `total` rows: `[done/total] row` on stderr.
-fn progress(total: usize) -> impl FnMut(&str) {
-    let mut done = 0;
-    move |row| {
-        done += 1;
-        eprintln!("[{done}/{total}] {row}");
-    }
-}
-
 /// How a command prints what it measured.
 #[derive(clap::Args, Clone, Copy)]
-struct Output {
+pub(crate) struct Output {
     /// Print JSON instead of the table (one object per row for `ping` and `ops`).
     #[arg(long, conflicts_with = "markdown")]
-    json: bool,
+    pub(crate) json: bool,
     /// Print the measured rows as Markdown tables, as BENCHMARKS.md and RELIABILITY.md quote
     /// them.
     #[arg(long)]
-    markdown: bool,
+    pub(crate) markdown: bool,
 }
 
 impl Output {
     /// Prints measured rows as a table, as Markdown, or as one JSON object per line.
-    fn rows<R: serde::Serialize>(
+    pub(crate) fn rows<R: serde::Serialize>(
         self,
         rows: &[R],
         table: fn(&[R]) -> String,
@@ -474,7 +354,7 @@ impl Output {
     }
 
     /// Prints a report as a table, as Markdown, or as one JSON object.
-    fn report<R: serde::Serialize>(
+    pub(crate) fn report<R: serde::Serialize>(
         self,
         report: &R,
         table: fn(&R) -> String,
@@ -489,247 +369,6 @@ impl Output {
             print!("{}", markdown(report));
         } else {
             print!("{}", table(report));
-        }
-    }
-}
-
-/// `seam run`: this executable starts the pods.
-fn run_scene(mut plan: RunPlan) -> Result<run::RunReport, String> {
-    let exe = std::env::current_exe().map_err(|e| format!("cannot find seam itself: {e}"))?;
-    plan.node_command = vec![exe.into(), "node".into()];
-    let stop = node::stop_flag()?;
-    eprintln!(
-        "seam run: {} on {}, one pod per cluster",
-        plan.scene.display(),
-        seam_transport::redact_url(&plan.transport)
-    );
-    run::run(&plan, &stop, |progress| {
-        let pods: Vec<String> = progress
-            .pods
-            .iter()
-            .flatten()
-            .map(|p| p.to_string())
-            .collect();
-        let pods = if pods.is_empty() {
-            "starting".to_owned()
-        } else {
-            pods.join(" · ")
-        };
-        eprintln!("[{:5.1} s] {pods}", progress.elapsed_s);
-    })
-}
-
-/// `value` seconds (clap has checked it is a number; negative or not finite becomes 0, which
-/// the caller refuses).
-fn seconds(value: f64) -> std::time::Duration {
-    std::time::Duration::try_from_secs_f64(value).unwrap_or_default()
-}
-
-fn chaos(mut plan: ChaosPlan, output: Output) -> Result<(), String> {
-    if plan.duration < std::time::Duration::from_secs(10) {
-        return Err("--duration-s must be at least 10".into());
-    }
-    if plan.fault_every < std::time::Duration::from_secs(2) {
-        return Err("--fault-every-s must be at least 2 (a fault needs its quiet second)".into());
-    }
-    let exe = std::env::current_exe().map_err(|e| format!("cannot find seam itself: {e}"))?;
-    plan.node_command = vec![exe.into(), "node".into()];
-    let stop = node::stop_flag()?;
-    eprintln!(
-        "seam chaos: {} for {:.0} s, a fault every {:.0} s",
-        plan.scene.display(),
-        plan.duration.as_secs_f64(),
-        plan.fault_every.as_secs_f64()
-    );
-    let report = seam_bench::chaos::run(&plan, &stop, |line| eprintln!("{line}"))?;
-    output.report(
-        &report,
-        seam_bench::chaos::table,
-        seam_bench::chaos::markdown,
-    );
-    if report.holds() {
-        Ok(())
-    } else {
-        Err("seam chaos: a target did not hold (see the report)".into())
-    }
-}
-
-fn main() -> ExitCode {
-    let result = match Cli::parse().command {
-        Command::Run {
-            scene,
-            transport,
-            rate,
-            ticks,
-            proxy_mode,
-            authority,
-            replication_interval,
-            no_coupling,
-            layers,
-            in_phase,
-            output,
-        } => run_scene(RunPlan {
-            scene,
-            transport: expand_transport(&transport),
-            rate,
-            ticks,
-            proxy_mode,
-            authority,
-            replication_interval,
-            coupling: !no_coupling,
-            layers,
-            run_id: run::fresh_run_id(),
-            node_command: Vec::new(),
-            start_delay: std::time::Duration::from_millis(750),
-            in_phase,
-        })
-        .and_then(|report| {
-            output.report(&report, run::table, run::markdown);
-            if report.ownership.holds() {
-                Ok(())
-            } else {
-                Err(format!(
-                    "seam run: {} entities lost and {} owned twice at the end (see the report)",
-                    report.ownership.lost.len(),
-                    report.ownership.duplicated.len()
-                ))
-            }
-        }),
-        Command::Compare {
-            scenes,
-            knobs,
-            trace,
-            output,
-        } => compare(&scenes, &knobs.settings(), trace.as_deref(), output),
-        Command::Sweep {
-            scenes,
-            quick,
-            ticks,
-            transport,
-            rate,
-            out,
-        } => sweep(scenes, quick, ticks, transport, rate, &out),
-        Command::Chaos {
-            scene,
-            transport,
-            duration_s,
-            fault_every_s,
-            rate,
-            layers,
-            seed,
-            output,
-        } => chaos(
-            ChaosPlan {
-                scene,
-                redis: transport == "redis",
-                rate,
-                duration: seconds(duration_s),
-                fault_every: seconds(fault_every_s),
-                layers,
-                seed,
-                node_command: Vec::new(),
-            },
-            output,
-        ),
-        Command::Node(args) => node::stop_flag().and_then(|stop| {
-            node::run_node(&args, &stop, &mut std::io::stdout().lock()).map(|_| ())
-        }),
-        Command::Ping {
-            transport,
-            size,
-            iterations,
-            warmup,
-            wait,
-            output,
-            no_floor,
-        } => {
-            let plan = PingPlan {
-                transports: transport.iter().map(|t| expand_transport(t)).collect(),
-                sizes: size,
-                iterations,
-                warmup,
-                wait,
-                floor: !no_floor,
-            };
-            let total = plan.transports.len() * plan.sizes.len()
-                + if plan.floor {
-                    plan.transports
-                        .iter()
-                        .filter(|t| *t == "shm" || t.starts_with("shm?"))
-                        .count()
-                        * plan.sizes.len()
-                } else {
-                    0
-                };
-            eprintln!(
-                "seam ping: {iterations} timed round trips per row after {warmup} warm-up, one-way = round trip / 2, {} cores",
-                std::thread::available_parallelism().map_or(0, |n| n.get())
-            );
-            ping::run(&plan, progress(total))
-                .map(|rows| output.rows(&rows, ping::table, ping::markdown))
-                .map_err(|e| e.to_string())
-        }
-        Command::Ops {
-            transport,
-            batch,
-            rounds,
-            warmup,
-            wait,
-            output,
-        } => {
-            let plan = OpsPlan {
-                transports: transport.iter().map(|t| expand_transport(t)).collect(),
-                batches: batch,
-                rounds,
-                warmup,
-                wait,
-            };
-            let total = plan.transports.len() * plan.batches.len();
-            eprintln!(
-                "seam ops: {rounds} timed frames per row after {warmup} warm-up, one frame in flight"
-            );
-            ops::run(&plan, progress(total))
-                .map(|rows| output.rows(&rows, ops::table, ops::markdown))
-        }
-        Command::Scene { files } => files.iter().try_for_each(|file| {
-            let scene = seam_bench::scene::load(file).map_err(|e| e.to_string())?;
-            let entities: u64 = scene.entities.iter().map(|e| e.copies()).sum();
-            println!(
-                "{}: scene {:?}: {} clusters, {entities} entities, {} events, {} ticks of {:.4} s",
-                file.display(),
-                scene.name,
-                scene.clusters.len(),
-                scene.events.len(),
-                scene.ticks,
-                scene.dt
-            );
-            Ok(())
-        }),
-        Command::OpsOwner {
-            transport,
-            events,
-            ack,
-            wait,
-        } => ops::run_owner(&transport, &events, &ack, wait),
-        Command::PingPeer {
-            transport,
-            ping,
-            pong,
-            count,
-            wait,
-        } => ping::run_peer(&transport, &ping, &pong, count, wait),
-        Command::PingFloorPeer {
-            ping,
-            pong,
-            size,
-            count,
-        } => ping::run_floor_peer(&ping, &pong, size, count),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("seam: {e}");
-            ExitCode::FAILURE
         }
     }
 }

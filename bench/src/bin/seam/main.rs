@@ -1,0 +1,196 @@
+//! `seam` — run and measure seam. See `seam --help`.
+
+mod cli;
+mod commands;
+
+use std::process::ExitCode;
+
+use clap::Parser;
+use seam_bench::chaos::ChaosPlan;
+use seam_bench::node;
+use seam_bench::ops::{self, OpsPlan};
+use seam_bench::ping::{self, PingPlan};
+use seam_bench::run::{self, RunPlan};
+
+use cli::{Cli, Command};
+use commands::{chaos, compare, expand_transport, progress, run_scene, seconds, sweep};
+
+fn main() -> ExitCode {
+    let result = match Cli::parse().command {
+        Command::Run {
+            scene,
+            transport,
+            rate,
+            ticks,
+            proxy_mode,
+            authority,
+            replication_interval,
+            no_coupling,
+            layers,
+            in_phase,
+            output,
+        } => run_scene(RunPlan {
+            scene,
+            transport: expand_transport(&transport),
+            rate,
+            ticks,
+            proxy_mode,
+            authority,
+            replication_interval,
+            coupling: !no_coupling,
+            layers,
+            run_id: run::fresh_run_id(),
+            node_command: Vec::new(),
+            start_delay: std::time::Duration::from_millis(750),
+            in_phase,
+        })
+        .and_then(|report| {
+            output.report(&report, run::table, run::markdown);
+            if report.ownership.holds() {
+                Ok(())
+            } else {
+                Err(format!(
+                    "seam run: {} entities lost and {} owned twice at the end (see the report)",
+                    report.ownership.lost.len(),
+                    report.ownership.duplicated.len()
+                ))
+            }
+        }),
+        Command::Compare {
+            scenes,
+            knobs,
+            trace,
+            output,
+        } => compare(&scenes, &knobs.settings(), trace.as_deref(), output),
+        Command::Sweep {
+            scenes,
+            quick,
+            ticks,
+            transport,
+            rate,
+            out,
+        } => sweep(scenes, quick, ticks, transport, rate, &out),
+        Command::Chaos {
+            scene,
+            transport,
+            duration_s,
+            fault_every_s,
+            rate,
+            layers,
+            seed,
+            output,
+        } => chaos(
+            ChaosPlan {
+                scene,
+                redis: transport == "redis",
+                rate,
+                duration: seconds(duration_s),
+                fault_every: seconds(fault_every_s),
+                layers,
+                seed,
+                node_command: Vec::new(),
+            },
+            output,
+        ),
+        Command::Node(args) => node::stop_flag().and_then(|stop| {
+            node::run_node(&args, &stop, &mut std::io::stdout().lock()).map(|_| ())
+        }),
+        Command::Ping {
+            transport,
+            size,
+            iterations,
+            warmup,
+            wait,
+            output,
+            no_floor,
+        } => {
+            let plan = PingPlan {
+                transports: transport.iter().map(|t| expand_transport(t)).collect(),
+                sizes: size,
+                iterations,
+                warmup,
+                wait,
+                floor: !no_floor,
+            };
+            let total = plan.transports.len() * plan.sizes.len()
+                + if plan.floor {
+                    plan.transports
+                        .iter()
+                        .filter(|t| *t == "shm" || t.starts_with("shm?"))
+                        .count()
+                        * plan.sizes.len()
+                } else {
+                    0
+                };
+            eprintln!(
+                "seam ping: {iterations} timed round trips per row after {warmup} warm-up, one-way = round trip / 2, {} cores",
+                std::thread::available_parallelism().map_or(0, |n| n.get())
+            );
+            ping::run(&plan, progress(total))
+                .map(|rows| output.rows(&rows, ping::table, ping::markdown))
+                .map_err(|e| e.to_string())
+        }
+        Command::Ops {
+            transport,
+            batch,
+            rounds,
+            warmup,
+            wait,
+            output,
+        } => {
+            let plan = OpsPlan {
+                transports: transport.iter().map(|t| expand_transport(t)).collect(),
+                batches: batch,
+                rounds,
+                warmup,
+                wait,
+            };
+            let total = plan.transports.len() * plan.batches.len();
+            eprintln!(
+                "seam ops: {rounds} timed frames per row after {warmup} warm-up, one frame in flight"
+            );
+            ops::run(&plan, progress(total))
+                .map(|rows| output.rows(&rows, ops::table, ops::markdown))
+        }
+        Command::Scene { files } => files.iter().try_for_each(|file| {
+            let scene = seam_bench::scene::load(file).map_err(|e| e.to_string())?;
+            let entities: u64 = scene.entities.iter().map(|e| e.copies()).sum();
+            println!(
+                "{}: scene {:?}: {} clusters, {entities} entities, {} events, {} ticks of {:.4} s",
+                file.display(),
+                scene.name,
+                scene.clusters.len(),
+                scene.events.len(),
+                scene.ticks,
+                scene.dt
+            );
+            Ok(())
+        }),
+        Command::OpsOwner {
+            transport,
+            events,
+            ack,
+            wait,
+        } => ops::run_owner(&transport, &events, &ack, wait),
+        Command::PingPeer {
+            transport,
+            ping,
+            pong,
+            count,
+            wait,
+        } => ping::run_peer(&transport, &ping, &pong, count, wait),
+        Command::PingFloorPeer {
+            ping,
+            pong,
+            size,
+            count,
+        } => ping::run_floor_peer(&ping, &pong, size, count),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("seam: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
