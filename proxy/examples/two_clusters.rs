@@ -73,16 +73,12 @@ fn main() -> Result<(), ClusterError> {
         if tick % 15 == 14 {
             let owner = clusters
                 .iter()
-                .position(|c| {
-                    c.sim()
-                        .info(ball.id)
-                        .is_some_and(|i| i.cluster_id == c.id())
-                })
+                .position(|c| c.sim().info(ball.id).is_some_and(|i| i.owner == c.id()))
                 .map_or("nobody", |i| names[i]);
             let at = |id| {
                 clusters
                     .iter()
-                    .find(|c| c.sim().info(id).is_some_and(|i| i.cluster_id == c.id()))
+                    .find(|c| c.sim().info(id).is_some_and(|i| i.owner == c.id()))
                     .and_then(|c| c.sim().state(id))
                     .map(|s| s.position[0])
             };

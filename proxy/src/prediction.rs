@@ -79,7 +79,7 @@ impl Predictions {
             let Some(info) = sim.info(p.target) else {
                 return false;
             };
-            if info.cluster_id == me || now > p.issued_tick + interval + MAX_PREDICTED_TICKS {
+            if info.owner == me || now > p.issued_tick + interval + MAX_PREDICTED_TICKS {
                 return false;
             }
             if info.role != BodyRole::Dynamic {

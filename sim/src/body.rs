@@ -5,7 +5,7 @@
 
 use rapier3d::prelude::*;
 
-use crate::cluster_sim::{BodyRole, EntityInfo};
+use crate::entity::{BodyRole, EntityInfo};
 use crate::wire::{EntityId, EntityState, PhysicsOp, Shape};
 
 /// Bodies moved or added outside a step whose query bounds are not refreshed yet. Queries
@@ -80,7 +80,7 @@ pub(crate) fn insert(
         body,
         collider,
         info: EntityInfo {
-            cluster_id: state.cluster_id,
+            owner: state.cluster_id,
             epoch: state.epoch,
             role,
             body: state.body,
@@ -102,7 +102,7 @@ pub(crate) fn state_of(
     let body = &world.bodies[entry.body];
     EntityState {
         id,
-        cluster_id: entry.info.cluster_id,
+        cluster_id: entry.info.owner,
         tick,
         epoch: entry.info.epoch,
         position: body.translation().to_array(),

@@ -5,48 +5,13 @@ use rapier3d::prelude::*;
 use crate::body::{self, Entry, StaleBounds};
 use crate::contacts::{ContactCollector, ContactEvent};
 use crate::coupling::{self, CouplingChanges, SeamImpulse};
+use crate::entity::{BodyRole, EntityInfo};
 use crate::error::SimError;
-use crate::handle::{Joints, PhysicsHandle, TickContext, WriteRouter};
+use crate::handle::{PhysicsHandle, TickContext};
+use crate::joints::Joints;
+use crate::router::WriteRouter;
 use crate::validate;
 use crate::wire::{ClusterId, EntityId, EntityState, IdMap, PhysicsOp};
-
-/// How a body takes part in the simulation. A body changes role in place, keeping its handle.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum BodyRole {
-    /// Simulated: forces, impulses and contacts move it. Only the authority has these.
-    Dynamic,
-    /// Does not move unless set; other bodies collide with it. The default proxy.
-    Fixed,
-    /// Moves with the velocity it is given; contacts do not push it.
-    KinematicVelocityBased,
-    /// Moves to the pose it is given by the next step; contacts do not push it.
-    KinematicPositionBased,
-}
-
-impl BodyRole {
-    pub(crate) fn rapier(self) -> RigidBodyType {
-        match self {
-            BodyRole::Dynamic => RigidBodyType::Dynamic,
-            BodyRole::Fixed => RigidBodyType::Fixed,
-            BodyRole::KinematicVelocityBased => RigidBodyType::KinematicVelocityBased,
-            BodyRole::KinematicPositionBased => RigidBodyType::KinematicPositionBased,
-        }
-    }
-}
-
-/// What the world knows of an entity besides its body.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EntityInfo {
-    /// The entity's authority as this world last learned it.
-    pub cluster_id: ClusterId,
-    /// How many times its authority had moved when this world last learned it (see
-    /// `EntityState::epoch`).
-    pub epoch: u32,
-    /// The body's current role.
-    pub role: BodyRole,
-    /// Shape, density, CCD.
-    pub body: crate::wire::BodyShape,
-}
 
 /// Settings of one cluster's world.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -92,6 +57,8 @@ pub struct ClusterSim {
     tick: u64,
     collector: ContactCollector,
     contacts: Vec<ContactEvent>,
+    /// Entities game code spawned through the handle, added once its code has run.
+    spawned: Vec<(EntityState, BodyRole)>,
 }
 
 impl ClusterSim {
@@ -112,6 +79,7 @@ impl ClusterSim {
             tick: 0,
             collector: ContactCollector::default(),
             contacts: Vec::new(),
+            spawned: Vec::new(),
         }
     }
 
@@ -208,7 +176,7 @@ impl ClusterSim {
     pub fn state(&self, id: EntityId) -> Option<EntityState> {
         let entry = self.entities.get(&id)?;
         let mut state = body::state_of(&self.world, id, entry, self.tick);
-        if entry.info.cluster_id != self.config.cluster_id {
+        if entry.info.owner != self.config.cluster_id {
             (state.linvel, state.angvel) = entry.replicated;
         }
         Some(state)
@@ -226,7 +194,7 @@ impl ClusterSim {
         entry.info.role = role;
         // Where it stands now is where the entity is (a body handed away, say).
         entry.posed_tick = self.tick;
-        if entry.info.cluster_id == self.config.cluster_id {
+        if entry.info.owner == self.config.cluster_id {
             entry.info.body.simulated = role == BodyRole::Dynamic;
         }
         Ok(())
@@ -259,12 +227,12 @@ impl ClusterSim {
             .get_mut(&id)
             .ok_or(SimError::UnknownEntity(id))?;
         let me = self.config.cluster_id;
-        if entry.info.cluster_id == me && cluster_id != me {
+        if entry.info.owner == me && cluster_id != me {
             // Handed away: reads of the proxy it becomes give the motion it left with.
             let body = &self.world.bodies[entry.body];
             entry.replicated = (body.linvel().to_array(), body.angvel().to_array());
         }
-        entry.info.cluster_id = cluster_id;
+        entry.info.owner = cluster_id;
         entry.info.epoch = epoch;
         Ok(())
     }
@@ -281,7 +249,7 @@ impl ClusterSim {
             .entities
             .get_index_mut(index)
             .ok_or(SimError::UnknownEntity(state.id))?;
-        entry.info.cluster_id = state.cluster_id;
+        entry.info.owner = state.cluster_id;
         entry.info.epoch = state.epoch;
         body::apply_state(
             &mut self.world,
@@ -341,6 +309,7 @@ impl ClusterSim {
             entities: &self.entities,
             joints: &mut self.joints,
             stale: &mut self.stale,
+            spawned: &mut self.spawned,
             router,
         };
         (context, handle)
@@ -353,7 +322,17 @@ impl ClusterSim {
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>) -> R,
     ) -> R {
         let (context, mut handle) = self.tick_scope(router);
-        user(&context, &mut handle)
+        let result = user(&context, &mut handle);
+        self.add_spawned();
+        result
+    }
+
+    /// Adds what game code spawned through the handle (checked when it was asked for).
+    fn add_spawned(&mut self) {
+        for (state, role) in std::mem::take(&mut self.spawned) {
+            // Refused only if game code also spawned the id directly meanwhile: the first stays.
+            let _ = self.spawn(&state, role);
+        }
     }
 
     /// Sets the tick count to `tick` (a world restarted into a running simulation carries on
@@ -370,6 +349,8 @@ impl ClusterSim {
 
     /// Advances the world by one step and collects the contacts that started or stopped.
     pub fn step(&mut self) {
+        // A handle taken with `tick_scope` adds its spawns here.
+        self.add_spawned();
         // The step brings every moved body's bounds up to date itself.
         self.stale.clear();
         self.world.step_with_events(&(), &self.collector);

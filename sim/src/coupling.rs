@@ -30,7 +30,7 @@
 use rapier3d::prelude::*;
 
 use crate::body::Entry;
-use crate::cluster_sim::BodyRole;
+use crate::entity::BodyRole;
 use crate::wire::{ClusterId, EntityId, IdMap};
 
 /// How much closer than touching two swept boxes must come for a proxy to be coupled, metres:
@@ -88,13 +88,13 @@ pub(crate) fn couple(
         Vector::from_array(e.replicated.0) * (ticks as f32 * dt)
     };
     let is_proxy = |e: &Entry| {
-        e.info.cluster_id != me && e.info.cluster_id != ClusterId::SCENERY && e.info.body.simulated
+        e.info.owner != me && e.info.owner != ClusterId::SCENERY && e.info.body.simulated
     };
     // The fastest body simulated here bounds how far a query must look around a proxy.
     let mut fastest = 0.0f32;
     let mut any_simulated = false;
     for entry in entities.values() {
-        if entry.info.cluster_id == me && entry.info.role == BodyRole::Dynamic {
+        if entry.info.owner == me && entry.info.role == BodyRole::Dynamic {
             any_simulated = true;
             fastest = fastest.max(world.bodies[entry.body].linvel().length());
         }
@@ -118,7 +118,7 @@ pub(crate) fn couple(
         let simulated_here = |collider: &Collider| {
             entities
                 .get(&EntityId::from_u128(collider.user_data))
-                .is_some_and(|e| e.info.cluster_id == me && e.info.role == BodyRole::Dynamic)
+                .is_some_and(|e| e.info.owner == me && e.info.role == BodyRole::Dynamic)
         };
         let mut queue = Vec::new();
         for (slot, (_, reach)) in proxies.iter().enumerate() {
@@ -211,7 +211,7 @@ pub(crate) fn seam_impulses(
 ) -> Vec<SeamImpulse> {
     let mut out = Vec::new();
     for (&proxy, entry) in entities {
-        if entry.info.cluster_id == me || entry.info.role != BodyRole::Dynamic {
+        if entry.info.owner == me || entry.info.role != BodyRole::Dynamic {
             continue;
         }
         for pair in world.contact_pairs_with(entry.collider) {
@@ -230,7 +230,7 @@ pub(crate) fn seam_impulses(
             let own = EntityId::from_u128(collider.user_data);
             let simulated_here = entities
                 .get(&own)
-                .is_some_and(|e| e.info.cluster_id == me && e.info.role == BodyRole::Dynamic);
+                .is_some_and(|e| e.info.owner == me && e.info.role == BodyRole::Dynamic);
             if simulated_here {
                 out.push(SeamImpulse {
                     own,

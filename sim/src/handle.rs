@@ -5,46 +5,16 @@
 //! does not own goes to a [`WriteRouter`] instead of the world, and a joint between entities of
 //! different owners is refused.
 
-use std::collections::BTreeMap;
-
 use rapier3d::prelude::*;
 
 use crate::body::{self, Entry, StaleBounds};
-use crate::cluster_sim::EntityInfo;
 use crate::contacts::ContactEvent;
+use crate::entity::{BodyRole, EntityInfo};
 use crate::error::SimError;
+use crate::joints::Joints;
+use crate::router::{WriteOutcome, WriteRouter};
 use crate::validate;
-use crate::wire::{ClusterId, EntityId, IdMap, PhysicsOp, Shape};
-
-/// Takes writes on entities owned by other clusters. The proxy layer implements it to queue the
-/// op for the owner; [`LocalOnly`] refuses them.
-pub trait WriteRouter {
-    /// Takes `op`, aimed at an entity whose authority is `owner`.
-    fn route(&mut self, owner: ClusterId, op: PhysicsOp) -> Result<(), SimError>;
-}
-
-/// A router for a world that stands alone: every write on a remote-owned entity is refused with
-/// [`SimError::NotOwned`].
-#[derive(Debug, Default, Clone, Copy)]
-pub struct LocalOnly;
-
-impl WriteRouter for LocalOnly {
-    fn route(&mut self, owner: ClusterId, op: PhysicsOp) -> Result<(), SimError> {
-        Err(SimError::NotOwned {
-            entity: op.target(),
-            owner,
-        })
-    }
-}
-
-/// What happened to a write.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum WriteOutcome {
-    /// Applied to this world (the entity is owned here).
-    Applied,
-    /// Handed to the router for the entity's owner.
-    Routed,
-}
+use crate::wire::{ClusterId, EntityId, EntityState, IdMap, PhysicsOp, Shape};
 
 /// What user code may read this tick.
 pub struct TickContext<'a> {
@@ -94,52 +64,6 @@ pub struct RayHit {
     pub normal: [f32; 3],
 }
 
-/// A joint between two entities, anchored in each body's local frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum JointSpec {
-    /// No relative motion.
-    Fixed {
-        /// Anchor on the first body.
-        anchor_a: [f32; 3],
-        /// Anchor on the second body.
-        anchor_b: [f32; 3],
-    },
-    /// A ball joint: the anchors stay together, rotation is free.
-    Spherical {
-        /// Anchor on the first body.
-        anchor_a: [f32; 3],
-        /// Anchor on the second body.
-        anchor_b: [f32; 3],
-    },
-    /// A hinge about `axis`.
-    Revolute {
-        /// Hinge axis (need not be normalised).
-        axis: [f32; 3],
-        /// Anchor on the first body.
-        anchor_a: [f32; 3],
-        /// Anchor on the second body.
-        anchor_b: [f32; 3],
-    },
-}
-
-/// A joint made by [`PhysicsHandle::create_joint`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct JointId(u64);
-
-/// The joints of a world, by seam id.
-#[derive(Default)]
-pub(crate) struct Joints {
-    next: u64,
-    handles: BTreeMap<JointId, (ImpulseJointHandle, RigidBodyHandle, RigidBodyHandle)>,
-}
-
-impl Joints {
-    /// Forgets the joints of a body being removed (Rapier removes them with it).
-    pub(crate) fn forget_body(&mut self, body: RigidBodyHandle) {
-        self.handles.retain(|_, (_, a, b)| *a != body && *b != body);
-    }
-}
-
 /// Entity-keyed reads, queries and writes on one cluster's world.
 pub struct PhysicsHandle<'a> {
     pub(crate) cluster_id: ClusterId,
@@ -147,6 +71,8 @@ pub struct PhysicsHandle<'a> {
     pub(crate) entities: &'a IdMap<EntityId, Entry>,
     pub(crate) joints: &'a mut Joints,
     pub(crate) stale: &'a mut StaleBounds,
+    /// Entities spawned by game code this tick, added to the world once it has run.
+    pub(crate) spawned: &'a mut Vec<(EntityState, BodyRole)>,
     pub(crate) router: &'a mut dyn WriteRouter,
 }
 
@@ -160,7 +86,7 @@ impl PhysicsHandle<'_> {
     fn replicated(&self, id: EntityId) -> Option<([f32; 3], [f32; 3])> {
         self.entities
             .get(&id)
-            .filter(|e| e.info.cluster_id != self.cluster_id)
+            .filter(|e| e.info.owner != self.cluster_id)
             .map(|e| e.replicated)
     }
 
@@ -254,13 +180,13 @@ impl PhysicsHandle<'_> {
             .entities
             .get(&op.target())
             .ok_or(SimError::UnknownEntity(op.target()))?;
-        if entry.info.cluster_id == self.cluster_id {
+        if entry.info.owner == self.cluster_id {
             body::apply_op(self.world, self.stale, entry, &op);
             Ok(WriteOutcome::Applied)
-        } else if entry.info.cluster_id == ClusterId::SCENERY {
+        } else if entry.info.owner == ClusterId::SCENERY {
             Err(SimError::Scenery(op.target()))
         } else {
-            self.router.route(entry.info.cluster_id, op)?;
+            self.router.route(entry.info.owner, op)?;
             Ok(WriteOutcome::Routed)
         }
     }
@@ -330,66 +256,28 @@ impl PhysicsHandle<'_> {
         self.write(PhysicsOp::Wake { target })
     }
 
+    /// Spawns an entity this cluster owns, with `role` (dynamic for what it simulates), from
+    /// game code: a shot fired, debris. It is checked now (finite, a unit rotation, a shape with
+    /// a size, an id not in this world) and added to the world once this tick's game code has
+    /// run, before the step: reads and queries of this tick do not see it yet, and its first
+    /// replication frame is this tick's. Its state's `cluster_id` is set to this cluster.
+    pub fn spawn(&mut self, state: &EntityState, role: BodyRole) -> Result<(), SimError> {
+        validate::state(state)?;
+        if self.entities.contains_key(&state.id)
+            || self.spawned.iter().any(|(s, _)| s.id == state.id)
+        {
+            return Err(SimError::DuplicateEntity(state.id));
+        }
+        let state = EntityState {
+            cluster_id: self.cluster_id,
+            ..*state
+        };
+        self.spawned.push((state, role));
+        Ok(())
+    }
+
     /// Puts the body to sleep.
     pub fn sleep(&mut self, target: EntityId) -> Result<WriteOutcome, SimError> {
         self.write(PhysicsOp::Sleep { target })
-    }
-
-    /// Joins two entities. Returns `None` unless both are in this world and owned by this
-    /// cluster: joints across clusters are refused (affinity must co-locate joint partners),
-    /// and so are joints with invalid (non-finite) anchors or axis.
-    pub fn create_joint(&mut self, a: EntityId, b: EntityId, spec: JointSpec) -> Option<JointId> {
-        let owned = |id: EntityId| {
-            self.entities
-                .get(&id)
-                .filter(|e| e.info.cluster_id == self.cluster_id)
-                .map(|e| e.body)
-        };
-        let (body_a, body_b) = (owned(a)?, owned(b)?);
-        if a == b {
-            return None;
-        }
-        let point = |v: [f32; 3]| {
-            v.iter()
-                .all(|c| c.is_finite())
-                .then(|| Vector::from_array(v))
-        };
-        let joint: GenericJoint = match spec {
-            JointSpec::Fixed { anchor_a, anchor_b } => FixedJointBuilder::new()
-                .local_anchor1(point(anchor_a)?)
-                .local_anchor2(point(anchor_b)?)
-                .into(),
-            JointSpec::Spherical { anchor_a, anchor_b } => SphericalJointBuilder::new()
-                .local_anchor1(point(anchor_a)?)
-                .local_anchor2(point(anchor_b)?)
-                .into(),
-            JointSpec::Revolute {
-                axis,
-                anchor_a,
-                anchor_b,
-            } => {
-                let axis = point(axis)?.try_normalize()?;
-                RevoluteJointBuilder::new(axis)
-                    .local_anchor1(point(anchor_a)?)
-                    .local_anchor2(point(anchor_b)?)
-                    .into()
-            }
-        };
-        let handle = self
-            .world
-            .impulse_joints
-            .insert(body_a, body_b, joint, true);
-        let id = JointId(self.joints.next);
-        self.joints.next += 1;
-        self.joints.handles.insert(id, (handle, body_a, body_b));
-        Some(id)
-    }
-
-    /// Removes a joint; returns whether it existed.
-    pub fn remove_joint(&mut self, joint: JointId) -> bool {
-        match self.joints.handles.remove(&joint) {
-            Some((handle, _, _)) => self.world.impulse_joints.remove(handle, true).is_some(),
-            None => false,
-        }
     }
 }

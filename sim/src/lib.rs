@@ -37,11 +37,14 @@
 //! - [`wire`] — ids, [`wire::EntityState`], [`wire::ReplicationFrame`],
 //!   [`wire::PhysicsEventsFrame`], [`wire::PhysicsOp`]; postcard behind a version byte, safe on
 //!   untrusted bytes.
-//! - `cluster_sim` — [`ClusterSim`], [`SimConfig`], [`BodyRole`]: the world, spawning and
-//!   despawning from states, roles changed in place, stepping.
-//! - `handle` — [`TickContext`], [`PhysicsHandle`] (reads, raycasts, shape queries, writes,
-//!   joints), and [`WriteRouter`], the hook through which the proxy layer routes writes on
-//!   entities owned elsewhere.
+//! - `cluster_sim` — [`ClusterSim`], [`SimConfig`]: the world, spawning and despawning from
+//!   states, roles changed in place, stepping.
+//! - `entity` — [`BodyRole`] and [`EntityInfo`]: what the world knows of an entity besides
+//!   its body.
+//! - `handle` — [`TickContext`], [`PhysicsHandle`] (reads, raycasts, shape queries, writes).
+//! - `joints` — [`JointSpec`], [`JointId`]: joints between entities this cluster owns.
+//! - `router` — [`WriteRouter`], the hook through which the proxy layer routes writes on
+//!   entities owned elsewhere, and [`LocalOnly`].
 //! - `body` — Rapier bodies and colliders behind entities.
 //! - `contacts` — Rapier collision events as entity pairs with impulse and normal
 //!   ([`ContactEvent`]).
@@ -57,16 +60,20 @@ mod body;
 mod cluster_sim;
 mod contacts;
 pub mod coupling;
+mod entity;
 mod error;
 mod handle;
+mod joints;
+mod router;
 mod validate;
 pub mod wire;
 
-pub use cluster_sim::{BodyRole, ClusterSim, EntityInfo, SimConfig};
+pub use cluster_sim::{ClusterSim, SimConfig};
 pub use contacts::ContactEvent;
 pub use coupling::{CouplingChanges, SeamImpulse};
+pub use entity::{BodyRole, EntityInfo};
 pub use error::SimError;
-pub use handle::{
-    JointId, JointSpec, LocalOnly, PhysicsHandle, RayHit, TickContext, WriteOutcome, WriteRouter,
-};
+pub use handle::{PhysicsHandle, RayHit, TickContext};
+pub use joints::{JointId, JointSpec};
+pub use router::{LocalOnly, WriteOutcome, WriteRouter};
 pub use validate::check_state;

@@ -554,3 +554,46 @@ fn states_land_on_the_right_entity_in_any_order() {
         Err(SimError::UnknownEntity(gone.id))
     );
 }
+
+/// Game code spawns through the handle: checked when asked, added once its code has run (so
+/// the tick's own reads do not see it), owned by this cluster whatever the state said, and
+/// stepped with the world.
+#[test]
+fn game_code_spawns_through_the_handle() {
+    let mut sim = ClusterSim::new(SimConfig {
+        gravity: [0.0; 3],
+        ..SimConfig::new(HERE)
+    });
+    sim.spawn(&ball(1, HERE, [0.0; 3], 0.5), BodyRole::Dynamic)
+        .expect("a ball to start with");
+    let shot = ball(2, THERE, [5.0, 0.0, 0.0], 0.1).velocity([10.0, 0.0, 0.0]);
+    let mut nan = ball(3, HERE, [0.0; 3], 0.1);
+    nan.position[1] = f32::NAN;
+    sim.run_user(&mut LocalOnly, |context, physics| {
+        physics.spawn(&shot, BodyRole::Dynamic).expect("spawned");
+        assert_eq!(
+            physics.spawn(&shot, BodyRole::Dynamic),
+            Err(SimError::DuplicateEntity(shot.id)),
+            "asked twice"
+        );
+        assert_eq!(
+            physics.spawn(&ball(1, HERE, [0.0; 3], 0.5), BodyRole::Dynamic),
+            Err(SimError::DuplicateEntity(EntityId::from_u128(1))),
+            "already in the world"
+        );
+        assert!(matches!(
+            physics.spawn(&nan, BodyRole::Dynamic),
+            Err(SimError::NonFinite { .. })
+        ));
+        assert!(
+            context.entity(shot.id).is_none(),
+            "not before the code has run"
+        );
+    });
+    let info = sim.info(shot.id).expect("added after the code ran");
+    assert_eq!((info.owner, info.role), (HERE, BodyRole::Dynamic));
+    assert!(sim.info(nan.id).is_none());
+    sim.step();
+    let moved = sim.state(shot.id).expect("there").position[0];
+    assert!(moved > 5.1, "stepped with the world: x = {moved}");
+}

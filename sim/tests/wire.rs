@@ -128,6 +128,13 @@ fn encode_into_a_buffer_of_exactly_the_size() {
             capacity: needed - 1
         })
     );
+    assert_eq!(
+        wire::encode_into(&frame, &mut []),
+        Err(WireError::BufferTooSmall {
+            needed,
+            capacity: 0
+        })
+    );
 }
 
 #[test]

@@ -1,5 +1,6 @@
-//! The three layers end to end, each test run on shm, local and redis:
-//! `raycast_hits_proxy::shm`, `raycast_hits_proxy::local`, `raycast_hits_proxy::redis`, …
+//! The three layers end to end, each test run on shm, local and redis (one macro for every
+//! per-backend test, `seam_tests::backend_tests!`): `shm::raycast_hits_proxy`,
+//! `local::raycast_hits_proxy`, `redis::raycast_hits_proxy`, …
 //! Clusters run in lock-step in this process, so every run is deterministic on every transport.
 
 use std::time::Duration;
@@ -15,49 +16,25 @@ use seam_transport::Backend;
 
 const TIMEOUT: Duration = Duration::from_secs(10);
 
-macro_rules! on_every_transport {
-    ($($test:ident),+ $(,)?) => {
-        $(
-            mod $test {
-                #[test]
-                fn shm() {
-                    super::run(super::Backend::Shm, super::$test);
-                }
-                #[test]
-                fn local() {
-                    super::run(super::Backend::Local, super::$test);
-                }
-                #[test]
-                fn redis() {
-                    super::run(super::Backend::Redis, super::$test);
-                }
-            }
-        )+
-    };
-}
-
-on_every_transport!(
-    raycast_hits_proxy,
-    impulse_routed_to_authority,
-    contact_flows_back,
-    authority_transfer_atomic,
-    joint_refused_across_clusters,
-    velocity_proxy_smoother_than_fixed,
-    flip_only_from_the_owner,
-    op_after_hand_off_is_forwarded_once,
-    forwarded_op_is_never_forwarded_again,
-    scenery_is_loaded_everywhere_and_never_replicated,
-    only_the_region_is_modelled,
-    custom_proxy_hook_moves_proxies,
-    third_cluster_routes_to_the_new_owner,
-    routed_ops_carry_their_stage_times,
+seam_tests::backend_tests!(
+    [shm: Shm, local: Local, redis: Redis],
+    [
+        raycast_hits_proxy,
+        impulse_routed_to_authority,
+        contact_flows_back,
+        authority_transfer_atomic,
+        joint_refused_across_clusters,
+        velocity_proxy_smoother_than_fixed,
+        flip_only_from_the_owner,
+        op_after_hand_off_is_forwarded_once,
+        forwarded_op_is_never_forwarded_again,
+        scenery_is_loaded_everywhere_and_never_replicated,
+        only_the_region_is_modelled,
+        custom_proxy_hook_moves_proxies,
+        third_cluster_routes_to_the_new_owner,
+        routed_ops_carry_their_stage_times,
+    ]
 );
-
-fn run(backend: Backend, test: fn(&TestContext)) {
-    if let Some(ctx) = TestContext::new(backend) {
-        test(&ctx);
-    }
-}
 
 /// Two neighbouring clusters on the test's transport, zero gravity unless `gravity`.
 fn pair(ctx: &TestContext, gravity: bool, tune: impl Fn(&mut ClusterConfig)) -> Vec<Cluster> {
@@ -252,12 +229,12 @@ fn authority_transfer_atomic(ctx: &TestContext) {
         clusters[1].sim().info(moving.id).expect("B models it"),
     );
     assert_eq!(
-        (at_a.cluster_id, at_a.role),
+        (at_a.owner, at_a.role),
         (b, BodyRole::Fixed),
         "A's body became a proxy"
     );
     assert_eq!(
-        (at_b.cluster_id, at_b.role),
+        (at_b.owner, at_b.role),
         (b, BodyRole::Dynamic),
         "B's proxy became the body"
     );
@@ -464,7 +441,7 @@ fn flip_only_from_the_owner(ctx: &TestContext) {
     rounds(&mut clusters, 2);
     let after = clusters[1].sim().info(entity.id).expect("still B's");
     assert_eq!(
-        (after.cluster_id, after.role),
+        (after.owner, after.role),
         (b, BodyRole::Dynamic),
         "B still owns it"
     );
@@ -542,7 +519,7 @@ fn forwarded_op_is_never_forwarded_again(ctx: &TestContext) {
     .expect("round");
     rounds(&mut clusters, 4);
     assert_eq!(
-        clusters[2].sim().info(entity.id).map(|i| i.cluster_id),
+        clusters[2].sim().info(entity.id).map(|i| i.owner),
         Some(ids[2]),
         "C owns it"
     );
@@ -602,7 +579,7 @@ fn scenery_is_loaded_everywhere_and_never_replicated(ctx: &TestContext) {
     for cluster in &clusters {
         let info = cluster.sim().info(floor.id).expect("every cluster has it");
         assert_eq!(
-            (info.cluster_id, info.role),
+            (info.owner, info.role),
             (ClusterId::SCENERY, BodyRole::Fixed)
         );
         assert_eq!(cluster.stats().contacts_sent, 0, "nobody to report to");
@@ -717,11 +694,7 @@ fn third_cluster_routes_to_the_new_owner(ctx: &TestContext) {
         .expect("hand over");
     rounds(&mut clusters, 3);
     assert_eq!(
-        clusters[2]
-            .sim()
-            .info(entity.id)
-            .expect("C's proxy")
-            .cluster_id,
+        clusters[2].sim().info(entity.id).expect("C's proxy").owner,
         ids[1]
     );
     let mass = 1000.0 * 4.0 / 3.0 * std::f32::consts::PI * 0.125;

@@ -68,7 +68,7 @@ fn owners_among(clusters: &[Cluster], among: &[usize], id: EntityId) -> Vec<usiz
         .copied()
         .filter(|&i| {
             clusters[i].sim().info(id).is_some_and(|info| {
-                info.cluster_id == clusters[i].id() && info.role == BodyRole::Dynamic
+                info.owner == clusters[i].id() && info.role == BodyRole::Dynamic
             })
         })
         .collect()
@@ -144,7 +144,7 @@ fn a_dead_clusters_entities_are_adopted_once_and_returned() {
         let of_middle = clusters[survivor]
             .sim()
             .entities()
-            .filter(|(_, info)| info.cluster_id == middle_id)
+            .filter(|(_, info)| info.owner == middle_id)
             .count();
         assert_eq!(of_middle, 0, "no proxy of the dead cluster left");
     }

@@ -73,14 +73,14 @@ fn a_handoff_whose_frame_is_lost_still_lands(ctx: &TestContext) {
         .filter(|c| {
             c.sim()
                 .info(ball.id)
-                .is_some_and(|i| i.cluster_id == c.id() && i.role == BodyRole::Dynamic)
+                .is_some_and(|i| i.owner == c.id() && i.role == BodyRole::Dynamic)
         })
         .map(|c| c.id())
         .collect();
     assert_eq!(owners, vec![b], "owned once, by B");
     assert_eq!(clusters[1].stats().handoffs_in, 1);
     assert_eq!(
-        clusters[0].sim().info(ball.id).map(|i| i.cluster_id),
+        clusters[0].sim().info(ball.id).map(|i| i.owner),
         Some(b),
         "A keeps a proxy of B's ball"
     );
@@ -98,7 +98,7 @@ fn a_handoff_whose_frame_is_lost_still_lands(ctx: &TestContext) {
     let owned_by = |c: &Cluster| {
         c.sim()
             .info(ball.id)
-            .is_some_and(|i| i.cluster_id == c.id() && i.role == BodyRole::Dynamic)
+            .is_some_and(|i| i.owner == c.id() && i.role == BodyRole::Dynamic)
     };
     assert!(
         owned_by(&clusters[0]) && !owned_by(&clusters[1]),
@@ -150,11 +150,7 @@ fn a_repeated_handoff_arriving_after_the_entity_moved_on_changes_nothing() {
     }
     let owners = clusters
         .iter()
-        .filter(|c| {
-            c.sim()
-                .info(ball.id)
-                .is_some_and(|i| i.cluster_id == c.id())
-        })
+        .filter(|c| c.sim().info(ball.id).is_some_and(|i| i.owner == c.id()))
         .count();
     assert_eq!(owners, 1, "one owner at the end");
     assert_eq!(clusters[1].stats().handoffs_in, 1, "B took it once");
@@ -211,7 +207,7 @@ fn a_hand_back_the_dead_never_took_is_taken_back() {
     assert_eq!(stats.neighbours_lost, 1, "B took A for dead: {stats:?}");
     let info = clusters[1].sim().info(ball.id).expect("B has the ball");
     assert_eq!(
-        (info.cluster_id, info.role),
+        (info.owner, info.role),
         (b, BodyRole::Dynamic),
         "B took back the hand-back A never took: {stats:?}"
     );
@@ -245,7 +241,7 @@ fn stopped_policy_handoffs_hand_nothing_more() {
     let owner = |id: EntityId| {
         clusters
             .iter()
-            .filter(|c| c.sim().info(id).is_some_and(|i| i.cluster_id == c.id()))
+            .filter(|c| c.sim().info(id).is_some_and(|i| i.owner == c.id()))
             .map(|c| c.id())
             .collect::<Vec<_>>()
     };

@@ -279,7 +279,7 @@ fn authority_thrash_keeps_exactly_one_owner() {
     let mut flips = 0;
     for round in 0..1000 {
         for index in 0..2 {
-            let owner = clusters[index].sim().info(entity.id).map(|i| i.cluster_id);
+            let owner = clusters[index].sim().info(entity.id).map(|i| i.owner);
             if owner == Some(ids[index]) {
                 clusters[index]
                     .transfer_authority(entity.id, ids[1 - index])
@@ -421,7 +421,7 @@ impulse = 12.0
             .expect("reference state");
         let owner = pods
             .iter()
-            .find(|p| p.cluster().sim().info(id).map(|i| i.cluster_id) == Some(p.cluster().id()))
+            .find(|p| p.cluster().sim().info(id).map(|i| i.owner) == Some(p.cluster().id()))
             .expect("an owner");
         let state = owner.cluster().sim().state(id).expect("owner state");
         let speed = truth.linvel.iter().map(|v| v * v).sum::<f32>().sqrt();

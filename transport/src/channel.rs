@@ -4,10 +4,20 @@
 //! take any bytes, but iceoryx2 service names are at most 255 bytes and seam wants one rule on
 //! every backend, so a game that runs on Redis today runs on shared memory tomorrow.
 
-use crate::error::ChannelError;
+use crate::error::{ChannelError, PublishError};
 
 /// The longest channel name, in bytes; iceoryx2's limit for a service name.
 pub const MAX_CHANNEL_LEN: usize = 255;
+
+/// What every backend checks before it publishes: a channel name the common rule allows, and
+/// a payload (or the room asked for one) of at most `max` bytes.
+pub(crate) fn check_publish(channel: &str, len: usize, max: usize) -> Result<(), PublishError> {
+    validate_channel(channel)?;
+    if len > max {
+        return Err(PublishError::PayloadTooLarge { len, max });
+    }
+    Ok(())
+}
 
 /// Checks a channel name (or a pattern, which obeys the same rule) against the common rule.
 pub fn validate_channel(name: &str) -> Result<(), ChannelError> {

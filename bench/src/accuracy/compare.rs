@@ -159,7 +159,7 @@ fn simulated(pod: &Pod) -> impl Iterator<Item = EntityState> + '_ {
     let sim = pod.cluster().sim();
     let me = pod.cluster().id();
     sim.entities()
-        .filter(move |(_, info)| info.cluster_id == me && info.role == BodyRole::Dynamic)
+        .filter(move |(_, info)| info.owner == me && info.role == BodyRole::Dynamic)
         .filter_map(|(id, _)| sim.state(id))
 }
 

@@ -60,9 +60,8 @@ pub(super) fn run(
                     // pushed (a proxy's push goes to its owner, which knows whether its body
                     // moves).
                     let scenery = context.entity(entity).is_some_and(|info| {
-                        info.cluster_id == ClusterId::SCENERY
-                            || (info.cluster_id == context.cluster_id()
-                                && info.role == BodyRole::Fixed)
+                        info.owner == ClusterId::SCENERY
+                            || (info.owner == context.cluster_id() && info.role == BodyRole::Fixed)
                     });
                     let Ok(position) = physics.translation(entity) else {
                         continue;

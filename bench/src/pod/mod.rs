@@ -320,7 +320,7 @@ impl Pod {
         let me = self.cluster.id();
         let sim = self.cluster.sim();
         sim.entities()
-            .filter(|(_, info)| info.cluster_id == me)
+            .filter(|(_, info)| info.owner == me)
             .map(|(id, _)| id)
             .collect()
     }
@@ -332,8 +332,8 @@ impl Pod {
         self.cluster
             .sim()
             .entities()
-            .filter(|(_, info)| info.cluster_id != me && info.cluster_id != ClusterId::SCENERY)
-            .map(|(id, info)| (id, info.cluster_id))
+            .filter(|(_, info)| info.owner != me && info.owner != ClusterId::SCENERY)
+            .map(|(id, info)| (id, info.owner))
             .collect()
     }
 
@@ -400,7 +400,7 @@ impl Pod {
         let sim = self.cluster.sim();
         sim.entities()
             .filter(|(id, info)| {
-                info.cluster_id == me
+                info.owner == me
                     && info.role == BodyRole::Dynamic
                     && !self.all_projectiles.contains(id)
             })
@@ -434,9 +434,9 @@ impl Pod {
         let me = self.cluster.id();
         let (mut owned, mut proxies) = (0, 0);
         for (_, info) in self.cluster.sim().entities() {
-            if info.cluster_id == me {
+            if info.owner == me {
                 owned += 1;
-            } else if info.cluster_id != ClusterId::SCENERY {
+            } else if info.owner != ClusterId::SCENERY {
                 proxies += 1;
             }
         }
@@ -577,7 +577,7 @@ impl Pod {
                     };
                     let me = self.cluster.id();
                     for &id in copies {
-                        let owner = self.cluster.sim().info(id).map(|i| i.cluster_id);
+                        let owner = self.cluster.sim().info(id).map(|i| i.owner);
                         if owner != Some(me) || to == me {
                             // Not this pod's to hand over.
                             continue;

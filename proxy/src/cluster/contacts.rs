@@ -20,7 +20,7 @@ impl Cluster {
             .iter()
             .filter(|c| c.reported_by.is_none())
         {
-            let owner = |id| self.sim.info(id).map(|i| i.cluster_id);
+            let owner = |id| self.sim.info(id).map(|i| i.owner);
             let (Some(owner_a), Some(owner_b)) = (owner(contact.a), owner(contact.b)) else {
                 continue;
             };
@@ -57,7 +57,7 @@ impl Cluster {
         let tick = self.sim.tick();
         let impulses = self.sim.seam_impulses();
         for i in &impulses {
-            let Some(owner) = self.sim.info(i.proxy).map(|info| info.cluster_id) else {
+            let Some(owner) = self.sim.info(i.proxy).map(|info| info.owner) else {
                 continue;
             };
             if self.config.neighbours.contains(&owner) {
@@ -90,7 +90,7 @@ impl Cluster {
                 let simulated_here = self
                     .sim
                     .info(report.other)
-                    .is_some_and(|i| i.cluster_id == me && i.role == BodyRole::Dynamic);
+                    .is_some_and(|i| i.owner == me && i.role == BodyRole::Dynamic);
                 if simulated_here && within(report.impulse, limit) {
                     received.push(*report);
                 } else {
@@ -111,7 +111,7 @@ impl Cluster {
             // body goes to that body's owner. Only if the owner is alive and has published its
             // reports of that step: silence from a pod that stalled or died says nothing of
             // what it saw, and the push would be lost with it.
-            let Some(owner) = self.sim.info(other).map(|i| i.cluster_id) else {
+            let Some(owner) = self.sim.info(other).map(|i| i.owner) else {
                 continue;
             };
             if owner == me || !self.config.neighbours.contains(&owner) {
@@ -140,7 +140,7 @@ impl Cluster {
             let simulated_here = self
                 .sim
                 .info(target)
-                .is_some_and(|i| i.cluster_id == me && i.role == BodyRole::Dynamic);
+                .is_some_and(|i| i.owner == me && i.role == BodyRole::Dynamic);
             if simulated_here
                 && self
                     .sim

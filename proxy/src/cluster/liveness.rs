@@ -111,7 +111,7 @@ impl Cluster {
                 cluster_id: me,
                 ..*state
             };
-            let done = match self.sim.info(state.id).map(|i| i.cluster_id) {
+            let done = match self.sim.info(state.id).map(|i| i.owner) {
                 Some(owner) if owner == dead => self
                     .sim
                     .set_role(state.id, owner_role(state))
@@ -131,7 +131,7 @@ impl Cluster {
         let left: Vec<EntityId> = self
             .sim
             .entities()
-            .filter(|(_, info)| info.cluster_id == dead)
+            .filter(|(_, info)| info.owner == dead)
             .map(|(id, _)| id)
             .collect();
         for id in left {
@@ -199,7 +199,7 @@ impl Cluster {
             .adopted
             .iter()
             .filter(|&(id, &from)| {
-                from == neighbour && sim.info(*id).is_some_and(|i| i.cluster_id == me)
+                from == neighbour && sim.info(*id).is_some_and(|i| i.owner == me)
             })
             .map(|(&id, _)| id)
             .collect();

@@ -265,7 +265,7 @@ impl Cluster {
         let owned = self
             .sim
             .entities()
-            .filter(|(_, info)| info.cluster_id == me)
+            .filter(|(_, info)| info.owner == me)
             .count();
         let frame = ReplicationFrame {
             from: me,
@@ -291,7 +291,7 @@ impl Cluster {
     ) -> Result<(), ClusterError> {
         let refuse = |reason| ClusterError::Transfer { entity, to, reason };
         let info = self.sim.info(entity).ok_or(refuse("not in this world"))?;
-        if info.cluster_id != self.id() {
+        if info.owner != self.id() {
             return Err(refuse("not owned by this cluster"));
         }
         if to == self.id() {

@@ -92,7 +92,7 @@ impl Cluster {
             let owned: Vec<(EntityState, BodyRole)> = self
                 .sim
                 .entities()
-                .filter(|(_, info)| info.cluster_id == me)
+                .filter(|(_, info)| info.owner == me)
                 .filter_map(|(id, info)| self.sim.state(id).map(|s| (s, info.role)))
                 .collect();
             self.ask_policy(&owned);

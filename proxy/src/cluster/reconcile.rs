@@ -58,7 +58,7 @@ impl Cluster {
                 self.stats.states_rejected += 1;
                 continue;
             }
-            let known = self.sim.info(state.id).map(|i| (i.cluster_id, i.epoch));
+            let known = self.sim.info(state.id).map(|i| (i.owner, i.epoch));
             let outcome = match known {
                 // Handed (back) to this cluster, which owns it already — a repeat, or a return
                 // to a pod that was only stalled and kept simulating it: nothing to do but
@@ -114,7 +114,7 @@ impl Cluster {
         let departed: Vec<EntityId> = self
             .sim
             .entities()
-            .filter(|(id, info)| info.cluster_id == from && !listed.contains_key(id))
+            .filter(|(id, info)| info.owner == from && !listed.contains_key(id))
             .filter(|(id, _)| !self.handed.contains_key(id))
             .map(|(id, _)| id)
             .collect();

@@ -51,14 +51,13 @@ impl Cluster {
                     // Handed over since the issuer routed it: sent on, once, to the owner this
                     // cluster knows.
                     Some(info)
-                        if info.cluster_id != self.config.cluster_id
+                        if info.owner != self.config.cluster_id
                             && !routed.forwarded
-                            && self.config.neighbours.contains(&info.cluster_id)
-                            && self.neighbour_status(info.cluster_id)
-                                != Some(NeighbourStatus::Dead) =>
+                            && self.config.neighbours.contains(&info.owner)
+                            && self.neighbour_status(info.owner) != Some(NeighbourStatus::Dead) =>
                     {
                         self.outgoing_ops
-                            .entry(info.cluster_id)
+                            .entry(info.owner)
                             .or_default()
                             .push(RoutedOp {
                                 forwarded: true,
@@ -66,7 +65,7 @@ impl Cluster {
                             });
                         self.stats.ops_forwarded += 1;
                     }
-                    Some(info) if info.cluster_id == self.config.cluster_id => {
+                    Some(info) if info.owner == self.config.cluster_id => {
                         match self.sim.apply_op(&routed.op) {
                             Ok(()) => {
                                 self.stats.ops_applied += 1;

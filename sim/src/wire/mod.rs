@@ -62,7 +62,9 @@ pub struct BodyShape {
 pub struct EntityState {
     /// The entity.
     pub id: EntityId,
-    /// The authority: the cluster that simulates it. Changing it moves the entity.
+    /// The entity's **owner** (its authority): the cluster that simulates it and applies writes
+    /// on it. The design and its users know the field as `cluster_id`, so the wire keeps the
+    /// name; it never means the cluster holding the state. Changing it moves the entity.
     pub cluster_id: ClusterId,
     /// The authority's tick this state is from.
     pub tick: u64,
@@ -83,6 +85,11 @@ pub struct EntityState {
 }
 
 impl EntityState {
+    /// The entity's owner (the wire's `cluster_id`).
+    pub fn owner(&self) -> ClusterId {
+        self.cluster_id
+    }
+
     /// Position, rotation, linear and angular velocity as raw IEEE 754 bits, to compare worlds
     /// exactly (determinism checks).
     pub fn motion_bits(&self) -> [u32; 13] {
@@ -357,19 +364,22 @@ pub fn encoded_len<T: Serialize>(frame: &T) -> usize {
 }
 
 /// Encodes `frame` into the start of `buffer` (for example a loaned shared-memory sample);
-/// returns the bytes written.
+/// returns the bytes written. The frame is walked once; its size is worked out only when it
+/// does not fit.
 pub fn encode_into<T: Serialize>(frame: &T, buffer: &mut [u8]) -> Result<usize, WireError> {
-    let needed = encoded_len(frame);
-    if buffer.len() < needed {
-        return Err(WireError::BufferTooSmall {
-            needed,
-            capacity: buffer.len(),
-        });
+    let too_small = |buffer: &[u8]| WireError::BufferTooSmall {
+        needed: encoded_len(frame),
+        capacity: buffer.len(),
+    };
+    let Some((version, rest)) = buffer.split_first_mut() else {
+        return Err(too_small(buffer));
+    };
+    *version = WIRE_VERSION;
+    match postcard::to_slice(frame, rest) {
+        Ok(body) => Ok(1 + body.len()),
+        Err(postcard::Error::SerializeBufferFull) => Err(too_small(buffer)),
+        Err(e) => Err(WireError::Malformed(e.to_string())),
     }
-    buffer[0] = WIRE_VERSION;
-    let body = postcard::to_slice(frame, &mut buffer[1..])
-        .map_err(|e| WireError::Malformed(e.to_string()))?;
-    Ok(1 + body.len())
 }
 
 /// Encodes `frame` into a new buffer.

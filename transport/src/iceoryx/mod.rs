@@ -27,6 +27,7 @@ use iceoryx2::prelude::*;
 use iceoryx2::service::Service;
 use iceoryx2::service::static_config::messaging_pattern::MessagingPattern as StaticPattern;
 
+use crate::channel::check_publish;
 use crate::envelope::{Intake, random_publisher_id};
 use crate::error::{OpenError, PublishError, ReceiveError, SubscribeError};
 use crate::pattern::glob_match;
@@ -290,11 +291,7 @@ where
         capacity: usize,
         write: &mut dyn FnMut(&mut [u8]) -> Option<usize>,
     ) -> Result<usize, PublishError> {
-        validate_channel(channel)?;
-        let max = self.config.max_payload;
-        if capacity > max {
-            return Err(PublishError::PayloadTooLarge { len: capacity, max });
-        }
+        check_publish(channel, capacity, self.config.max_payload)?;
         let publisher_id = self.publisher_id;
         let initial = self.config.initial_payload;
         let outlet = self.outlet(channel, initial)?;
@@ -304,14 +301,7 @@ where
     }
 
     fn publish(&mut self, channel: &str, payload: &[u8]) -> Result<usize, PublishError> {
-        validate_channel(channel)?;
-        let max = self.config.max_payload;
-        if payload.len() > max {
-            return Err(PublishError::PayloadTooLarge {
-                len: payload.len(),
-                max,
-            });
-        }
+        check_publish(channel, payload.len(), self.config.max_payload)?;
         let publisher_id = self.publisher_id;
         let initial = self.config.initial_payload;
         let reached = self

@@ -40,9 +40,10 @@ use std::time::{Duration, Instant};
 
 use redis::ConnectionLike;
 
+use crate::channel::check_publish;
 use crate::envelope::{Envelope, Intake, SeqCounter, random_publisher_id};
 use crate::error::{OpenError, PublishError, ReceiveError, SubscribeError};
-use crate::{Backend, MAX_CHANNEL_LEN, Message, Stats, Transport, validate_channel};
+use crate::{Backend, MAX_CHANNEL_LEN, Message, Stats, Transport};
 use socket::Socket;
 
 /// A transport over a Redis server.
@@ -119,11 +120,7 @@ impl Transport for RedisTransport {
         capacity: usize,
         write: &mut dyn FnMut(&mut [u8]) -> Option<usize>,
     ) -> Result<usize, PublishError> {
-        validate_channel(channel)?;
-        let max = self.config.max_payload;
-        if capacity > max {
-            return Err(PublishError::PayloadTooLarge { len: capacity, max });
-        }
+        check_publish(channel, capacity, self.config.max_payload)?;
         if self.config.reconnect && !self.up() {
             self.intake.stats.dropped_while_down += 1;
             return Ok(0);
