@@ -148,6 +148,26 @@ impl AuthorityArgs {
     }
 }
 
+/// How pods model their neighbours and move authority: the flags `seam node`, `run` and
+/// `compare` share.
+#[derive(Debug, Clone, Copy, PartialEq, clap::Args)]
+pub struct ModelArgs {
+    /// How neighbour entities are modelled.
+    #[arg(long, value_enum, default_value_t = ProxyModeArg::Fixed)]
+    pub proxy_mode: ProxyModeArg,
+    /// Which hand-offs the clusters make.
+    #[command(flatten)]
+    pub authority: AuthorityArgs,
+    /// A replication frame every this many ticks.
+    #[arg(long, default_value_t = 1)]
+    pub replication_interval: u64,
+    /// Contacts do not push across the seam: proxies stay immovable (Fixed) or infinitely
+    /// heavy (kinematic) whatever they meet, as before contact coupling (see
+    /// `seam_sim::coupling`). For measuring what coupling buys.
+    #[arg(long)]
+    pub no_coupling: bool,
+}
+
 /// `seam node`'s flags.
 #[derive(Debug, Clone, clap::Args)]
 pub struct NodeArgs {
@@ -179,20 +199,9 @@ pub struct NodeArgs {
     /// not.
     #[arg(long, default_value = "seam")]
     pub run_id: String,
-    /// How neighbour entities are modelled.
-    #[arg(long, value_enum, default_value_t = ProxyModeArg::Fixed)]
-    pub proxy_mode: ProxyModeArg,
-    /// Which hand-offs the pod makes.
+    /// How neighbours are modelled and authority moves.
     #[command(flatten)]
-    pub authority: AuthorityArgs,
-    /// A replication frame every this many ticks.
-    #[arg(long, default_value_t = 1)]
-    pub replication_interval: u64,
-    /// Contacts do not push across the seam: proxies stay immovable (Fixed) or infinitely
-    /// heavy (kinematic) whatever they meet, as before contact coupling (see
-    /// `seam_sim::coupling`). For measuring what coupling buys.
-    #[arg(long)]
-    pub no_coupling: bool,
+    pub model: ModelArgs,
     /// Stack this many copies of every grid entity along y (see `Scene::stacked`): the same
     /// scene with more entities.
     #[arg(long, default_value_t = 1)]
@@ -251,10 +260,10 @@ pub fn run_node(
         _ => Part::Reference,
     };
     let settings = PodSettings {
-        proxy_mode: args.proxy_mode.into(),
-        authority: args.authority.mode(),
-        replication_interval: args.replication_interval,
-        coupling: !args.no_coupling,
+        proxy_mode: args.model.proxy_mode.into(),
+        authority: args.model.authority.mode(),
+        replication_interval: args.model.replication_interval,
+        coupling: !args.model.no_coupling,
         neighbour_timeout_ticks: args.neighbour_timeout_ticks,
         rejoin: args.rejoin,
         ..PodSettings::new(&args.transport, &args.run_id)

@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use seam_bench::accuracy::TrialSettings;
-use seam_bench::node::{AuthorityArgs, NodeArgs, ProxyModeArg};
+use seam_bench::node::{ModelArgs, NodeArgs};
 use seam_bench::ping::WaitMode;
 
 #[derive(Parser)]
@@ -42,19 +42,8 @@ pub(crate) enum Command {
         /// Ticks to run (default: the scene's `ticks`).
         #[arg(long)]
         ticks: Option<u64>,
-        /// How neighbour entities are modelled.
-        #[arg(long, value_enum, default_value_t = ProxyModeArg::Fixed)]
-        proxy_mode: ProxyModeArg,
         #[command(flatten)]
-        authority: AuthorityArgs,
-        /// A replication frame every this many ticks.
-        #[arg(long, default_value_t = 1)]
-        replication_interval: u64,
-        /// Contacts do not push across the seam: proxies stay immovable (Fixed) or infinitely
-        /// heavy (kinematic) whatever they meet, as before contact coupling (see
-        /// `seam_sim::coupling`). For measuring what coupling buys.
-        #[arg(long)]
-        no_coupling: bool,
+        model: ModelArgs,
         /// Stack this many copies of every grid entity along y, `spacing[1]` apart: the same
         /// traffic with more entities (`grid` holds 2 500 balls per layer).
         #[arg(long, default_value_t = 1)]
@@ -276,19 +265,8 @@ pub(crate) enum Command {
 /// The settings `seam compare` tries.
 #[derive(clap::Args)]
 pub(crate) struct Knobs {
-    /// How neighbour entities are modelled.
-    #[arg(long, value_enum, default_value_t = ProxyModeArg::Fixed)]
-    proxy_mode: ProxyModeArg,
     #[command(flatten)]
-    authority: AuthorityArgs,
-    /// A replication frame every this many ticks.
-    #[arg(long, default_value_t = 1)]
-    replication_interval: u64,
-    /// Contacts do not push across the seam: proxies stay immovable (Fixed) or infinitely
-    /// heavy (kinematic) whatever they meet, as before contact coupling (see
-    /// `seam_sim::coupling`). For measuring what coupling buys.
-    #[arg(long)]
-    no_coupling: bool,
+    model: ModelArgs,
     /// Observation spread of every cluster, m (default: the scene's).
     #[arg(long)]
     spread: Option<f32>,
@@ -309,10 +287,10 @@ pub(crate) struct Knobs {
 impl Knobs {
     pub(crate) fn settings(&self) -> TrialSettings {
         TrialSettings {
-            proxy_mode: self.proxy_mode.into(),
-            authority: self.authority,
-            replication_interval: self.replication_interval.max(1),
-            coupling: !self.no_coupling,
+            proxy_mode: self.model.proxy_mode.into(),
+            authority: self.model.authority,
+            replication_interval: self.model.replication_interval.max(1),
+            coupling: !self.model.no_coupling,
             spread: self.spread,
             interest: !self.everything,
             projectile_speed: self.speed,
