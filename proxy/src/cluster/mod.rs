@@ -317,7 +317,7 @@ impl Cluster {
         self.drain()?;
         self.check_liveness();
         let frames = self.inbox.take_all();
-        self.run(frames, user)
+        self.run_tick(frames, user)
     }
 
     /// What this cluster knows of `neighbour`'s liveness (`None` for a non-neighbour).
@@ -355,13 +355,13 @@ impl Cluster {
                 if let Some(message) = self.transport.receive_timeout(deadline - now)? {
                     let received_ns = monotonic_ns();
                     let frame = decode_frame(message.channel, message.payload);
-                    self.file(frame, received_ns);
+                    self.take_in(frame, received_ns);
                 }
                 self.drain()?;
             }
         }
         let frames = self.inbox.take_tick(tick, &self.config.neighbours);
-        self.run(frames, user)
+        self.run_tick(frames, user)
     }
 
     /// Waits up to `timeout` for a frame to arrive, sleeping on the transport's wake-up rather
@@ -375,12 +375,13 @@ impl Cluster {
         };
         let received_ns = monotonic_ns();
         let frame = decode_frame(message.channel, message.payload);
-        self.file(frame, received_ns);
+        self.take_in(frame, received_ns);
         self.drain()?;
         Ok(true)
     }
 
-    fn run(
+    /// One tick on the frames the caller gathered: every phase, in order (see the crate docs).
+    fn run_tick(
         &mut self,
         frames: TickFrames,
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),

@@ -75,12 +75,14 @@ impl Cluster {
             let received_ns = monotonic_ns();
             // Decoded straight from the received bytes (on shm, the shared-memory sample).
             let frame = decode_frame(message.channel, message.payload);
-            self.file(frame, received_ns);
+            self.take_in(frame, received_ns);
         }
         Ok(())
     }
 
-    pub(super) fn file(&mut self, frame: Result<Frame, Rejected>, received_ns: u64) {
+    /// Takes one received frame in: a malformed, implausible or replayed frame is counted and
+    /// dropped; the others go to the inbox for the tick that uses them.
+    pub(super) fn take_in(&mut self, frame: Result<Frame, Rejected>, received_ns: u64) {
         let kept = match frame {
             Ok(frame) if self.implausible(frame.from(), frame.tick()) => {
                 self.stats.frames_implausible += 1;
