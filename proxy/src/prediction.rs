@@ -19,7 +19,7 @@
 //! moving as its owner's body does the step after — was measured worse where bodies rest
 //! against each other. Lock-step `seam compare`, Fixed proxies, a frame every tick: without
 //! prediction `grid` 0.0030–0.0034 of Σm|v| momentum error and `seam-stack` 4.6 cm RMS; until
-//! the next state 0.0021–0.0026 and 4.0 cm; once more after it 0.0014–0.0017 and 5.7 cm (the
+//! the next state 0.0019–0.0027 (nine runs) and 4.0 cm; once more after it 0.0014–0.0017 and 5.7 cm (the
 //! re-kicked proxy stands where the un-kicked state put it, a step's worth of the kick behind
 //! the bodies pushed with it, and is driven into them).
 

@@ -84,10 +84,9 @@ pub(crate) fn sweep(
             Err(e) => eprintln!("seam sweep: leaving out the transport axis on {e}"),
         }
     }
-    let exe = std::env::current_exe().map_err(|e| format!("cannot find seam itself: {e}"))?;
     let free = accuracy::FreeRunning {
         rate,
-        node_command: vec![exe.into(), "node".into()],
+        node_command: node_command()?,
     };
     let started = std::time::Instant::now();
     let results = seam_bench::sweep::run(&scenes, &grid, ticks, &free, |done, total, line| {
@@ -123,10 +122,15 @@ pub(crate) fn progress(total: usize) -> impl FnMut(&str) {
     }
 }
 
+/// How `seam run`, `chaos` and `sweep` start a pod: this executable's `node` command.
+fn node_command() -> Result<Vec<std::ffi::OsString>, String> {
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find seam itself: {e}"))?;
+    Ok(vec![exe.into(), "node".into()])
+}
+
 /// `seam run`: this executable starts the pods.
 pub(crate) fn run_scene(mut plan: RunPlan) -> Result<run::RunReport, String> {
-    let exe = std::env::current_exe().map_err(|e| format!("cannot find seam itself: {e}"))?;
-    plan.node_command = vec![exe.into(), "node".into()];
+    plan.node_command = node_command()?;
     let stop = node::stop_flag()?;
     eprintln!(
         "seam run: {} on {}, one pod per cluster",
@@ -162,8 +166,7 @@ pub(crate) fn chaos(mut plan: ChaosPlan, output: Output) -> Result<(), String> {
     if plan.fault_every < std::time::Duration::from_secs(2) {
         return Err("--fault-every-s must be at least 2 (a fault needs its quiet second)".into());
     }
-    let exe = std::env::current_exe().map_err(|e| format!("cannot find seam itself: {e}"))?;
-    plan.node_command = vec![exe.into(), "node".into()];
+    plan.node_command = node_command()?;
     let stop = node::stop_flag()?;
     eprintln!(
         "seam chaos: {} for {:.0} s, a fault every {:.0} s",
