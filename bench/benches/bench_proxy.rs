@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use seam_proxy::{Cluster, ClusterConfig, Region};
 use seam_sim::BodyRole;
-use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape};
 
 const ENTITIES: usize = 10_000;
 const TIMEOUT: Duration = Duration::from_secs(10);
@@ -43,7 +43,7 @@ fn scene(proxies: usize) -> Vec<Cluster> {
     let mut a = Cluster::new(config_a).expect("A");
     let b = Cluster::new(config_b).expect("B");
     for i in 0..ENTITIES {
-        let body = BodyShape::new(Shape::ball(0.5));
+        let body = BodySpec::new(Shape::ball(0.5));
         let state = EntityState::new(EntityId::from_u128(i as u128 + 1), a.id(), body)
             .at(position(i))
             // Slow drift along x, so proxies move every tick and nothing falls asleep.

@@ -13,7 +13,7 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use seam_sim::wire::{
-    self, BodyShape, ClusterId, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp,
+    self, BodySpec, ClusterId, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp,
     ReplicationFrame, RoutedOp, Shape,
 };
 use seam_sim::{BodyRole, ClusterSim, SimConfig};
@@ -59,7 +59,7 @@ fn op_batch(c: &mut Criterion) {
 }
 
 fn state(i: usize, owner: ClusterId) -> EntityState {
-    let body = BodyShape::new(Shape::ball(0.5));
+    let body = BodySpec::new(Shape::ball(0.5));
     EntityState {
         tick: 1,
         ..EntityState::new(EntityId::from_u128(i as u128 + 1), owner, body)

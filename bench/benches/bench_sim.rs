@@ -16,7 +16,7 @@ use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use rapier3d::prelude::*;
-use seam_sim::wire::{self, BodyShape, ClusterId, EntityId, EntityState, ReplicationFrame, Shape};
+use seam_sim::wire::{self, BodySpec, ClusterId, EntityId, EntityState, ReplicationFrame, Shape};
 use seam_sim::{BodyRole, ClusterSim, SimConfig};
 
 const BODIES: usize = 10_000;
@@ -61,7 +61,7 @@ fn state_in(i: usize, order: Order) -> EntityState {
     EntityState::new(
         EntityId::from_u128(i as u128 + 1),
         HERE,
-        BodyShape::new(shape),
+        BodySpec::new(shape),
     )
     .at(grid(i))
 }

@@ -19,6 +19,8 @@
 //! - [`ping`] — `seam ping`: one-way latency between two processes over any transport, with
 //!   plain iceoryx2 as the floor.
 //! - [`ops`] — `seam ops`: routed-op latency between two processes, stage by stage.
+//! - [`console`] — stderr: `tracing` logs (`RUST_LOG`) and progress (a bar on a terminal, plain
+//!   lines otherwise), logs printed above the bar.
 //! - [`redis_server`] — a private `redis-server` child that runs and tests can crash and
 //!   restart.
 //! - [`scene`] — the scene format (`bench/scenes/*.toml`) and its checks.
@@ -31,6 +33,7 @@
 
 pub mod accuracy;
 pub mod chaos;
+pub mod console;
 pub mod latency;
 pub mod markdown;
 pub mod node;

@@ -55,11 +55,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ball = EntityId::named(&run, "ball");
     let crate_ = EntityId::named(&run, "crate");
     let body = if me == "west" {
-        EntityState::new(ball, west, BodyShape::new(Shape::ball(0.25)).density(500.0))
+        EntityState::new(ball, west, BodySpec::new(Shape::ball(0.25)).density(500.0))
             .at([-3.0, 0.0, 0.0])
             .velocity([4.0, 0.0, 0.0])
     } else {
-        EntityState::new(crate_, east, BodyShape::new(Shape::cuboid(0.5, 0.5, 0.5)))
+        EntityState::new(crate_, east, BodySpec::new(Shape::cuboid(0.5, 0.5, 0.5)))
             .at([1.5, 0.0, 0.0])
     };
 

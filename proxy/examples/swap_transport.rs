@@ -42,7 +42,7 @@ fn run(url: &str, run: &str) -> Result<Outcome, ClusterError> {
     let crate_ = EntityState::new(
         EntityId::named(run, "crate"),
         east,
-        BodyShape::new(Shape::cuboid(0.5, 0.5, 0.5)).density(100.0),
+        BodySpec::new(Shape::cuboid(0.5, 0.5, 0.5)).density(100.0),
     )
     .at([4.0, 0.0, 0.0]);
     clusters[1].spawn_owned(&crate_, BodyRole::Dynamic)?;

@@ -53,14 +53,14 @@ fn main() -> Result<(), ClusterError> {
     let ball = EntityState::new(
         EntityId::named(&run, "ball"),
         west,
-        BodyShape::new(Shape::ball(0.25)).density(500.0),
+        BodySpec::new(Shape::ball(0.25)).density(500.0),
     )
     .at([-3.0, 0.0, 0.0])
     .velocity([4.0, 0.0, 0.0]);
     let crate_ = EntityState::new(
         EntityId::named(&run, "crate"),
         east,
-        BodyShape::new(Shape::cuboid(0.5, 0.5, 0.5)).density(200.0),
+        BodySpec::new(Shape::cuboid(0.5, 0.5, 0.5)).density(200.0),
     )
     .at([1.5, 0.0, 0.0]);
     clusters[0].spawn_owned(&ball, BodyRole::Dynamic)?;

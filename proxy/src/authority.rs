@@ -195,7 +195,7 @@ impl AuthorityPolicy for Spatial {
 
 #[cfg(test)]
 mod tests {
-    use seam_sim::wire::{BodyShape, Shape};
+    use seam_sim::wire::{BodySpec, Shape};
 
     use super::*;
 
@@ -207,7 +207,7 @@ mod tests {
     }
 
     fn body(x: f32) -> (EntityState, BodyRole) {
-        let body = BodyShape::new(Shape::ball(0.5)).density(1.0);
+        let body = BodySpec::new(Shape::ball(0.5)).density(1.0);
         let id = EntityId::from_u128(x.to_bits() as u128 + 1);
         let state = EntityState::new(id, ClusterId::from_u128(2), body).at([x, 0.0, 0.0]);
         (state, BodyRole::Dynamic)

@@ -68,7 +68,7 @@ fn toward(from: [f32; 4], to: [f32; 4], fraction: f32) -> [f32; 4] {
 
 #[cfg(test)]
 mod tests {
-    use seam_sim::wire::{BodyShape, ClusterId, EntityId, Shape};
+    use seam_sim::wire::{BodySpec, ClusterId, EntityId, Shape};
 
     use super::*;
 
@@ -78,7 +78,7 @@ mod tests {
         linvel: [f32; 3],
         angvel: [f32; 3],
     ) -> EntityState {
-        let body = BodyShape::new(Shape::ball(0.3)).density(1.0);
+        let body = BodySpec::new(Shape::ball(0.3)).density(1.0);
         EntityState::new(EntityId::from_u128(1), ClusterId::from_u128(2), body)
             .at(position)
             .rotated(rotation)

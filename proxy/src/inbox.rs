@@ -150,12 +150,12 @@ fn carry_handoffs(older: ReplicationFrame, newer: &mut ReplicationFrame) {
 
 #[cfg(test)]
 mod tests {
-    use seam_sim::wire::{BodyShape, EntityId, EntityState, Shape};
+    use seam_sim::wire::{BodySpec, EntityId, EntityState, Shape};
 
     use super::*;
 
     fn state(id: EntityId, owner: ClusterId, x: f32) -> EntityState {
-        let body = BodyShape::new(Shape::ball(0.5)).density(1.0);
+        let body = BodySpec::new(Shape::ball(0.5)).density(1.0);
         EntityState::new(id, owner, body).at([x, 0.0, 0.0])
     }
 

@@ -148,7 +148,7 @@ impl Interest {
 
 #[cfg(test)]
 mod tests {
-    use seam_sim::wire::{BodyShape, ClusterId, EntityId};
+    use seam_sim::wire::{BodySpec, ClusterId, EntityId};
 
     use super::*;
 
@@ -158,7 +158,7 @@ mod tests {
         rotation: [f32; 4],
         linvel: [f32; 3],
     ) -> EntityState {
-        let body = BodyShape::new(shape).density(1.0);
+        let body = BodySpec::new(shape).density(1.0);
         EntityState::new(EntityId::random(), ClusterId::random(), body)
             .at(position)
             .rotated(rotation)

@@ -18,7 +18,7 @@
 //! let crate_ = EntityState::new(
 //!     EntityId::named(&run, "crate"),
 //!     a,
-//!     BodyShape::new(Shape::cuboid(0.5, 0.5, 0.5)).density(500.0),
+//!     BodySpec::new(Shape::cuboid(0.5, 0.5, 0.5)).density(500.0),
 //! )
 //! .at([10.0, 0.0, 0.0]);
 //! clusters[0].spawn_owned(&crate_, BodyRole::Dynamic)?;
@@ -262,6 +262,6 @@ pub mod prelude {
         AuthorityMode, AuthorityPolicy, Cluster, ClusterConfig, ClusterError, NeighbourStatus,
         ProxyMode, Region, Schedule, WorldCluster, lockstep_round, monotonic_ns, world_map,
     };
-    pub use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, PhysicsOp, Shape};
+    pub use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, PhysicsOp, Shape};
     pub use seam_sim::{BodyRole, PhysicsHandle, TickContext};
 }

@@ -2,7 +2,7 @@
 
 use rapier3d::prelude::RigidBodyType;
 
-use crate::wire::{BodyShape, ClusterId};
+use crate::wire::{BodySpec, ClusterId};
 
 /// How a body takes part in the simulation. A body changes role in place, keeping its handle.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -40,5 +40,5 @@ pub struct EntityInfo {
     /// The body's current role.
     pub role: BodyRole,
     /// Shape, density, CCD.
-    pub body: BodyShape,
+    pub body: BodySpec,
 }

@@ -1,7 +1,7 @@
 //! Checks on values that come from user code or from the wire, before they reach Rapier.
 
 use crate::error::SimError;
-use crate::wire::{BodyShape, EntityId, EntityState, PhysicsOp, Shape};
+use crate::wire::{BodySpec, EntityId, EntityState, PhysicsOp, Shape};
 
 /// Largest quaternion norm error accepted (rotations are renormalised after the check).
 const UNIT_TOLERANCE: f32 = 1e-3;
@@ -32,7 +32,7 @@ pub(crate) fn op(op: &PhysicsOp) -> Result<(), SimError> {
 }
 
 /// Checks a shape descriptor.
-pub(crate) fn body_shape(entity: EntityId, body: &BodyShape) -> Result<(), SimError> {
+pub(crate) fn body_spec(entity: EntityId, body: &BodySpec) -> Result<(), SimError> {
     let positive = |x: f32| x.is_finite() && x > 0.0;
     let ok = match body.shape {
         Shape::Ball { radius } => positive(radius),
@@ -62,7 +62,7 @@ pub(crate) fn body_shape(entity: EntityId, body: &BodyShape) -> Result<(), SimEr
 /// with it, modelled or not.
 pub fn check_state(state: &EntityState) -> Result<(), SimError> {
     motion(state)?;
-    body_shape(state.id, &state.body)
+    body_spec(state.id, &state.body)
 }
 
 pub(crate) use check_state as state;

@@ -1,7 +1,7 @@
 //! One cluster's world: spawning, roles, writes, validation, routing, joints, queries and
 //! contacts, on real Rapier worlds.
 
-use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, PhysicsOp, Shape};
+use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, PhysicsOp, Shape};
 use seam_sim::{
     BodyRole, ClusterSim, JointSpec, LocalOnly, SimConfig, SimError, WriteOutcome, WriteRouter,
 };
@@ -10,12 +10,12 @@ const HERE: ClusterId = ClusterId(uuid::Uuid::from_u128(1));
 const THERE: ClusterId = ClusterId(uuid::Uuid::from_u128(2));
 
 fn ball(id: u128, owner: ClusterId, position: [f32; 3], radius: f32) -> EntityState {
-    let body = BodyShape::new(Shape::ball(radius));
+    let body = BodySpec::new(Shape::ball(radius));
     EntityState::new(EntityId::from_u128(id), owner, body).at(position)
 }
 
 fn cuboid(id: u128, owner: ClusterId, position: [f32; 3], half: [f32; 3]) -> EntityState {
-    let body = BodyShape::new(Shape::cuboid(half[0], half[1], half[2]));
+    let body = BodySpec::new(Shape::cuboid(half[0], half[1], half[2]));
     EntityState::new(EntityId::from_u128(id), owner, body).at(position)
 }
 

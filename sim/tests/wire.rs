@@ -1,8 +1,8 @@
 //! The wire format: round trips, and untrusted bytes that must never panic.
 
 use seam_sim::wire::{
-    self, BodyShape, ClusterId, ContactReport, EntityId, EntityState, PhysicsEventsFrame,
-    PhysicsOp, ReplicationFrame, RoutedOp, SeamImpulseReport, Shape, WIRE_VERSION, WireError,
+    self, BodySpec, ClusterId, ContactReport, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp,
+    ReplicationFrame, RoutedOp, SeamImpulseReport, Shape, WIRE_VERSION, WireError,
 };
 
 fn state(i: u32) -> EntityState {
@@ -15,7 +15,7 @@ fn state(i: u32) -> EntityState {
         rotation: [0.0, 0.0, 0.0, 1.0],
         linvel: [0.5, 0.0, 1e3],
         angvel: [0.0, -1.0, 0.0],
-        body: BodyShape {
+        body: BodySpec {
             shape: match i % 3 {
                 0 => Shape::Ball { radius: 0.5 },
                 1 => Shape::Cuboid {

@@ -41,6 +41,35 @@ macro_rules! backend_tests {
     };
 }
 
+/// A host clock a test drives by hand, for `Cluster::tick_at`: liveness counts silence in
+/// ticks and in host time, and this lets a test pass host time without sleeping.
+#[derive(Debug, Clone, Copy)]
+pub struct HandClock {
+    now_ns: u64,
+    dt_ns: u64,
+}
+
+impl HandClock {
+    /// Starting at the host's monotonic time now, one step being `dt` seconds.
+    pub fn new(dt: f32) -> Self {
+        Self {
+            now_ns: seam_proxy::monotonic_ns(),
+            dt_ns: (f64::from(dt) * 1e9) as u64,
+        }
+    }
+
+    /// The time now, ns.
+    pub fn now_ns(&self) -> u64 {
+        self.now_ns
+    }
+
+    /// Moves on by one step and returns the new time.
+    pub fn advance(&mut self) -> u64 {
+        self.now_ns += self.dt_ns;
+        self.now_ns
+    }
+}
+
 /// Where Redis tests connect unless `SEAM_REDIS_URL` says otherwise.
 pub const DEFAULT_REDIS_URL: &str = "redis://127.0.0.1:6379";
 
@@ -239,11 +268,11 @@ impl Drop for Peer {
 /// A ball at rest at `x` on the x axis, 0.5 m radius, 100 kg/m³, owned by `owner`, with a fresh
 /// entity id.
 pub fn ball_at(x: f32, owner: seam_sim::wire::ClusterId) -> seam_sim::wire::EntityState {
-    use seam_sim::wire::{BodyShape, EntityId, EntityState, Shape};
+    use seam_sim::wire::{BodySpec, EntityId, EntityState, Shape};
     EntityState::new(
         EntityId::random(),
         owner,
-        BodyShape::new(Shape::ball(0.5)).density(100.0),
+        BodySpec::new(Shape::ball(0.5)).density(100.0),
     )
     .at([x, 0.0, 0.0])
 }

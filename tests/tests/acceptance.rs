@@ -9,7 +9,7 @@ use seam_proxy::{
     AuthorityPolicy, AuthorityView, Cluster, ClusterConfig, CustomProxy, ProxyMode, Region,
     lockstep_round,
 };
-use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape};
 use seam_sim::{BodyRole, JointSpec, WriteOutcome};
 use seam_tests::TestContext;
 use seam_transport::Backend;
@@ -78,7 +78,7 @@ fn ball(position: [f32; 3], linvel: [f32; 3]) -> EntityState {
     EntityState::new(
         EntityId::random(),
         ClusterId::random(),
-        BodyShape::new(Shape::ball(0.5)),
+        BodySpec::new(Shape::ball(0.5)),
     )
     .at(position)
     .velocity(linvel)
@@ -552,7 +552,7 @@ fn scenery_is_loaded_everywhere_and_never_replicated(ctx: &TestContext) {
     let floor = EntityState::new(
         EntityId::random(),
         ClusterId::random(),
-        BodyShape::new(Shape::cuboid(20.0, 0.5, 20.0)).density(1.0),
+        BodySpec::new(Shape::cuboid(20.0, 0.5, 20.0)).density(1.0),
     )
     .at([0.0, -0.5, 0.0]);
     for cluster in &mut clusters {

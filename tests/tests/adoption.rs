@@ -7,7 +7,7 @@
 use seam_proxy::{AuthorityMode, Cluster, ClusterConfig, NeighbourStatus, Region, WorldCluster};
 use seam_sim::BodyRole;
 use seam_sim::wire::{ClusterId, EntityId};
-use seam_tests::ball_at;
+use seam_tests::{HandClock, ball_at};
 
 const TIMEOUT_TICKS: u64 = 10;
 
@@ -52,12 +52,12 @@ fn row(url: &str) -> [Cluster; 3] {
     })
 }
 
-/// One tick of each of `which`, paced like a pod (a neighbour is taken for dead after the
-/// timeout in ticks and in host time).
-fn tick(clusters: &mut [Cluster], which: &[usize]) {
-    std::thread::sleep(std::time::Duration::from_secs_f32(clusters[0].config().dt));
+/// One tick of each of `which`, one `dt` of host time after the last (a neighbour is taken
+/// for dead after the timeout in ticks and in host time).
+fn tick(clusters: &mut [Cluster], clock: &mut HandClock, which: &[usize]) {
+    let now = clock.advance();
     for &i in which {
-        clusters[i].tick(|_, _| {}).expect("tick");
+        clusters[i].tick_at(now, |_, _| {}).expect("tick");
     }
 }
 
@@ -83,6 +83,7 @@ fn owners(clusters: &[Cluster], id: EntityId) -> Vec<usize> {
 fn a_dead_clusters_entities_are_adopted_once_and_returned() {
     let url = format!("local?prefix=seam_adopt_{}_", std::process::id());
     let mut clusters = row(&url);
+    let mut clock = HandClock::new(clusters[0].config().dt);
     let (west, middle, east) = (0, 1, 2);
     let middle_id = clusters[middle].id();
     let balls: Vec<_> = [-4.0, 0.0, 4.0]
@@ -99,14 +100,14 @@ fn a_dead_clusters_entities_are_adopted_once_and_returned() {
         .spawn_owned(&handed, BodyRole::Dynamic)
         .expect("spawn");
     for _ in 0..3 {
-        tick(&mut clusters, &[west, middle, east]);
+        tick(&mut clusters, &mut clock, &[west, middle, east]);
     }
     // West hands a ball to middle, which dies before it reads the hand-off.
     let middle_id = clusters[middle].id();
     clusters[west]
         .transfer_authority(handed.id, middle_id)
         .expect("hand-off");
-    tick(&mut clusters, &[west, east]);
+    tick(&mut clusters, &mut clock, &[west, east]);
     let survivors = |clusters: &[Cluster], id| owners_among(clusters, &[0, 2], id);
     assert_eq!(
         survivors(&clusters, handed.id),
@@ -114,7 +115,7 @@ fn a_dead_clusters_entities_are_adopted_once_and_returned() {
         "in flight"
     );
     for _ in 0..TIMEOUT_TICKS + 1 {
-        tick(&mut clusters, &[west, east]);
+        tick(&mut clusters, &mut clock, &[west, east]);
     }
     for survivor in [west, east] {
         assert_eq!(
@@ -153,7 +154,7 @@ fn a_dead_clusters_entities_are_adopted_once_and_returned() {
     // adopters hand back what they adopted from it, and west completes the hand-off it took
     // back; afterwards each ball has one owner, middle.
     for _ in 0..4 {
-        tick(&mut clusters, &[west, middle, east]);
+        tick(&mut clusters, &mut clock, &[west, middle, east]);
     }
     for ball in balls.iter().chain([&handed]) {
         assert_eq!(owners(&clusters, ball.id), vec![middle], "{}", ball.id);

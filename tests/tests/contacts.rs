@@ -8,7 +8,7 @@
 use std::time::Duration;
 
 use seam_proxy::{Cluster, ClusterConfig, ProxyMode, lockstep_round};
-use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape};
 use seam_sim::{BodyRole, ClusterSim, ContactEvent, LocalOnly, SimConfig};
 
 const TIMEOUT: Duration = Duration::from_secs(10);
@@ -22,7 +22,7 @@ fn body(id: EntityId, owner: ClusterId, x: f32, vx: f32, shape: Shape, mass: f32
         } => 8.0 * a * b * c,
         Shape::Capsule { .. } => unreachable!("not used here"),
     };
-    let body = BodyShape::new(shape).density(mass / volume).ccd(true);
+    let body = BodySpec::new(shape).density(mass / volume).ccd(true);
     EntityState::new(id, owner, body)
         .at([x, 0.0, 0.0])
         .velocity([vx, 0.0, 0.0])

@@ -10,7 +10,7 @@ use seam_bench::node::NodeReport;
 use seam_proxy::{Cluster, ClusterConfig, NeighbourStatus, monotonic_ns};
 use seam_sim::BodyRole;
 use seam_sim::wire::ClusterId;
-use seam_tests::{TestContext, ball_at, finish_pod, scene_path, start_pod};
+use seam_tests::{HandClock, TestContext, ball_at, finish_pod, scene_path, start_pod};
 use seam_transport::Backend;
 
 const TIMEOUT_TICKS: u64 = 10;
@@ -42,18 +42,39 @@ fn a_silent_neighbour_is_dropped_and_rejoins() {
     assert_eq!(cluster_b.sim().len(), 2, "B models A's two balls");
     assert_eq!(cluster_b.neighbour_status(a), Some(NeighbourStatus::Alive));
 
-    // A stops. B keeps its proxies for the timeout, then drops them.
+    // A stops. Silence counts in ticks and in host time: B catching up (ticks back to back,
+    // its clock standing still) keeps A however many ticks it runs...
+    let mut clock = HandClock::new(cluster_b.config().dt);
+    for _ in 0..3 * TIMEOUT_TICKS {
+        cluster_b
+            .tick_at(clock.now_ns(), |_, _| {})
+            .expect("b ticks");
+    }
+    assert_eq!(cluster_b.neighbour_status(a), Some(NeighbourStatus::Alive));
+    assert_eq!(
+        cluster_b.sim().len(),
+        2,
+        "catching up takes nobody for dead"
+    );
+    // ... and paced like a pod, one dt a tick, B keeps its proxies for the timeout after A's
+    // last frame, then drops them.
+    cluster_a.tick(|_, _| {}).expect("a ticks");
+    cluster_b
+        .tick_at(clock.now_ns(), |_, _| {})
+        .expect("b ticks");
     for tick in 1..=TIMEOUT_TICKS + 1 {
-        // Paced like a pod: silence counts in ticks and in host time.
-        std::thread::sleep(Duration::from_secs_f32(cluster_b.config().dt));
-        cluster_b.tick(|_, _| {}).expect("b ticks");
+        cluster_b
+            .tick_at(clock.advance(), |_, _| {})
+            .expect("b ticks");
         let expected = if tick <= TIMEOUT_TICKS { 2 } else { 0 };
         assert_eq!(cluster_b.sim().len(), expected, "silent for {tick} ticks");
     }
     assert_eq!(cluster_b.neighbour_status(a), Some(NeighbourStatus::Dead));
     assert_eq!(cluster_b.stats().neighbours_lost, 1);
     // Silence does not count twice, and nothing is handed to a neighbour taken for dead.
-    cluster_b.tick(|_, _| {}).expect("b ticks");
+    cluster_b
+        .tick_at(clock.advance(), |_, _| {})
+        .expect("b ticks");
     assert_eq!(cluster_b.stats().neighbours_lost, 1);
     let own = ball_at(-2.0, ClusterId::random());
     cluster_b
@@ -66,7 +87,9 @@ fn a_silent_neighbour_is_dropped_and_rejoins() {
 
     // A is back: its next frame brings its entities back as proxies.
     cluster_a.tick(|_, _| {}).expect("a ticks");
-    cluster_b.tick(|_, _| {}).expect("b ticks");
+    cluster_b
+        .tick_at(clock.advance(), |_, _| {})
+        .expect("b ticks");
     assert_eq!(cluster_b.neighbour_status(a), Some(NeighbourStatus::Alive));
     assert_eq!(cluster_b.stats().neighbours_rejoined, 1);
     assert_eq!(

@@ -13,7 +13,7 @@ use seam_bench::pod::{Part, Pod, PodSettings};
 use seam_bench::scene::{self, Scene};
 use seam_proxy::{Cluster, ClusterConfig, ProxyMode, lockstep_round};
 use seam_sim::BodyRole;
-use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape};
 
 fn load(name: &str) -> Scene {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -266,7 +266,7 @@ fn lockstep_pair(test: &str) -> Vec<Cluster> {
 fn authority_thrash_keeps_exactly_one_owner() {
     let mut clusters = lockstep_pair("thrash");
     let ids = [clusters[0].id(), clusters[1].id()];
-    let body = BodyShape::new(Shape::ball(0.5)).density(100.0);
+    let body = BodySpec::new(Shape::ball(0.5)).density(100.0);
     let entity = EntityState::new(EntityId::random(), ids[0], body).velocity([2.0, -0.5, 1.0]);
     clusters[0]
         .spawn_owned(&entity, BodyRole::Dynamic)

@@ -232,8 +232,8 @@ impl Comparison {
                 format!("--trace: no entity {name:?} in the scene (a grid copy is `name#i`)")
             })?;
         self.traced = Some(id);
-        eprintln!(
-            "tick owner: split position m, velocity m/s | one world position, velocity | apart m"
+        crate::console::line(
+            "tick owner: split position m, velocity m/s | one world position, velocity | apart m",
         );
         Ok(())
     }
@@ -242,13 +242,15 @@ impl Comparison {
         let v = |a: [f32; 3]| format!("({:7.2} {:6.2} {:7.2})", a[0], a[1], a[2]);
         let one = format!("{} {}", v(truth.position), v(truth.linvel));
         match split {
-            Some((owner, state)) => eprintln!(
+            Some((owner, state)) => crate::console::line(&format!(
                 "{tick:5} {owner}: {} {} | {one} | {:.3}",
                 v(state.position),
                 v(state.linvel),
                 distance(state.position, truth.position)
-            ),
-            None => eprintln!("{tick:5} nobody simulates it (in transit or lost) | {one}"),
+            )),
+            None => crate::console::line(&format!(
+                "{tick:5} nobody simulates it (in transit or lost) | {one}"
+            )),
         }
     }
 

@@ -32,7 +32,6 @@ mod report;
 
 use std::collections::VecDeque;
 use std::ffi::OsString;
-use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::Child;
 use std::sync::Arc;
@@ -132,20 +131,6 @@ fn signal(child: &Child, signal: Signal) {
     }
 }
 
-/// Forwards a pod's stderr to this one's, prefixed, counting panic messages; the thread ends
-/// when the pod's stderr closes.
-fn watch_stderr(child: &mut Child, name: String, panics: Arc<AtomicU64>) -> Option<JoinHandle<()>> {
-    let stderr = child.stderr.take()?;
-    Some(std::thread::spawn(move || {
-        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-            if line.contains("panicked at") {
-                panics.fetch_add(1, Ordering::Relaxed);
-            }
-            eprintln!("[{name}] {line}");
-        }
-    }))
-}
-
 /// Runs the plan; `progress` gets a line about once a second.
 pub fn run(
     plan: &ChaosPlan,
@@ -197,7 +182,7 @@ pub fn run(
                   rejoin: bool|
      -> Result<(), String> {
         let pod = &mut pods[index];
-        let mut child = spawn_pod(
+        let (child, reader) = spawn_pod(
             &run_plan,
             &PodLaunch {
                 index,
@@ -205,15 +190,11 @@ pub fn run(
                 start_at: pod.start_at,
                 ticks,
                 rejoin,
-                pipe_stderr: true,
+                panics: &panics,
             },
             &lines,
         )?;
-        readers.extend(watch_stderr(
-            &mut child,
-            pod.name.clone(),
-            Arc::clone(&panics),
-        ));
+        readers.push(reader);
         pod.child = Some(child);
         pod.latest = None;
         pod.memory.clear();

@@ -10,8 +10,10 @@
 //! every hand-off under way is taken before the pods stop.
 //!
 //! Output: JSON lines on stdout, a [`NodeLine::Progress`] four times a second and one
-//! [`NodeLine::Report`] at the end (also written to `--metrics FILE` if given); unless
-//! `--quiet`, a human progress line on stderr too.
+//! [`NodeLine::Report`] at the end (also written to `--metrics FILE` if given). On stderr,
+//! through `tracing` (`RUST_LOG`, see [`crate::console`]): the pod's start and end, what the
+//! library logs (neighbours taken for dead and back, Redis outages), and unless `--quiet` a
+//! human progress line four times a second.
 
 mod report;
 
@@ -288,6 +290,15 @@ pub fn run_node(
         Some(at) => (schedule.starting_at(at.max(now)), 0, now.saturating_sub(at)),
         None => (schedule, 0, 0),
     };
+    tracing::info!(
+        target: "seam::pod",
+        pod = pod.name(),
+        transport = %shown,
+        rate_hz = args.rate,
+        ticks,
+        first_tick,
+        "pod started"
+    );
     let started = Instant::now();
     let mut tick_time = LatencyRecorder::default();
     let (mut overruns, mut max_lag_ns, mut proxies_peak) = (0u64, 0u64, 0usize);
@@ -324,7 +335,7 @@ pub fn run_node(
                 rss_kib: rss_kib(),
             };
             if !args.quiet {
-                eprintln!("{progress}");
+                tracing::info!(target: "seam::pod", "{progress}");
             }
             emit(out, &NodeLine::Progress(Box::new(progress)))?;
         }
@@ -365,6 +376,16 @@ pub fn run_node(
         projectiles_seen: pod.projectiles_seen(),
         rss_kib: rss_kib(),
     };
+    tracing::info!(
+        target: "seam::pod",
+        pod = report.cluster,
+        ticks = report.ticks,
+        overruns,
+        owned = entities_owned,
+        proxies,
+        stopped_by_signal = report.stopped_by_signal,
+        "pod done"
+    );
     if let Some(path) = &args.metrics {
         let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
         std::fs::write(path, text)

@@ -1,7 +1,7 @@
 //! The owning side of `seam ops` (a child process).
 
 use seam_proxy::monotonic_ns;
-use seam_sim::wire::{self, BodyShape, EntityState, PhysicsEventsFrame, Shape};
+use seam_sim::wire::{self, BodySpec, EntityState, PhysicsEventsFrame, Shape};
 use seam_sim::{BodyRole, ClusterSim, SimConfig};
 
 use super::{StageReport, TARGET};
@@ -22,7 +22,7 @@ pub fn run_owner(url: &str, events: &str, ack: &str, wait: WaitMode) -> Result<(
         ..SimConfig::new(here)
     });
     sim.spawn(
-        &EntityState::new(TARGET, here, BodyShape::new(Shape::ball(0.5))),
+        &EntityState::new(TARGET, here, BodySpec::new(Shape::ball(0.5))),
         BodyRole::Dynamic,
     )
     .map_err(|e| e.to_string())?;

@@ -25,7 +25,7 @@ use seam_proxy::{
     AuthorityMode, Cluster, ClusterConfig, ClusterError, ProxyMode, Region, WorldCluster, world_map,
 };
 use seam_sim::BodyRole;
-use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape};
 
 use crate::scene::{self, Event, Scene, SceneShape};
 pub use events::{EventCounts, RoutedPush};
@@ -247,7 +247,7 @@ impl Pod {
         let mut entities: HashMap<String, Vec<EntityId>> = HashMap::new();
         let mut owned_at_start = 0;
         for entity in &scene.entities {
-            let body = BodyShape {
+            let body = BodySpec {
                 shape: wire_shape(&entity.shape),
                 density: entity.mass() / entity.shape.volume(),
                 ccd: entity.ccd,
@@ -546,7 +546,7 @@ impl Pod {
                     ..
                 } if self.plays.contains(by) => {
                     let shape = SceneShape::Ball { radius: *radius };
-                    let body = BodyShape::new(wire_shape(&shape))
+                    let body = BodySpec::new(wire_shape(&shape))
                         .density(mass / shape.volume())
                         .ccd(*ccd);
                     let state = EntityState {

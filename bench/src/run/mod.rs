@@ -17,9 +17,11 @@ mod report;
 use std::ffi::OsString;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::process::{Child, ChildStderr, Command, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc;
+use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use seam_proxy::monotonic_ns;
@@ -80,28 +82,26 @@ pub struct PodLaunch<'a> {
     pub ticks: u64,
     /// Restarted into a running world (`seam node --rejoin`).
     pub rejoin: bool,
-    /// Pipe its stderr (taken by the caller from the child) instead of sharing this one's.
-    pub pipe_stderr: bool,
+    /// Counts the panic messages on its stderr.
+    pub panics: &'a Arc<AtomicU64>,
 }
 
 /// A line a pod wrote, tagged with its index, or why it could not be read.
 pub type PodLine = (usize, Result<NodeLine, String>);
 
-/// Starts one `seam node` of `plan` and a thread that sends its JSON lines to `lines`.
+/// Starts one `seam node` of `plan`, a thread that sends its JSON lines to `lines`, and one
+/// that forwards its stderr to this one's, each line tagged `[cluster]` and printed above any
+/// progress bar (see [`crate::console`]), counting panic messages in `launch.panics`. The
+/// forwarder ends when the pod's stderr closes: join it before reading the count.
 pub fn spawn_pod(
     plan: &RunPlan,
     launch: &PodLaunch<'_>,
     lines: &mpsc::Sender<PodLine>,
-) -> Result<Child, String> {
+) -> Result<(Child, JoinHandle<()>), String> {
     let (program, leading) = plan
         .node_command
         .split_first()
         .ok_or("no command to start a pod")?;
-    let stderr = if launch.pipe_stderr {
-        Stdio::piped()
-    } else {
-        Stdio::inherit()
-    };
     let mut command = Command::new(program);
     command
         .args(leading)
@@ -123,7 +123,7 @@ pub fn spawn_pod(
         .args(["--start-at", &launch.start_at.to_string(), "--quiet"])
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
-        .stderr(stderr);
+        .stderr(Stdio::piped());
     if launch.rejoin {
         command.arg("--rejoin");
     }
@@ -137,6 +137,11 @@ pub fn spawn_pod(
         .stdout
         .take()
         .ok_or_else(|| format!("pod {:?}: no stdout", launch.cluster))?;
+    let stderr = child
+        .stderr
+        .take()
+        .ok_or_else(|| format!("pod {:?}: no stderr", launch.cluster))?;
+    let forwarder = forward_stderr(stderr, launch.cluster, Arc::clone(launch.panics));
     let (lines, index) = (lines.clone(), launch.index);
     std::thread::spawn(move || {
         for line in BufReader::new(stdout).lines() {
@@ -149,7 +154,20 @@ pub fn spawn_pod(
             }
         }
     });
-    Ok(child)
+    Ok((child, forwarder))
+}
+
+/// Forwards a pod's stderr (see [`spawn_pod`]).
+fn forward_stderr(stderr: ChildStderr, name: &str, panics: Arc<AtomicU64>) -> JoinHandle<()> {
+    let name = name.to_owned();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if line.contains("panicked at") {
+                panics.fetch_add(1, Ordering::Relaxed);
+            }
+            crate::console::line(&format!("[{name}] {line}"));
+        }
+    })
 }
 
 /// Where the run is, for progress output.
@@ -215,9 +233,11 @@ pub fn run_pods(
     let launched = Instant::now();
     let (lines, incoming) = mpsc::channel::<PodLine>();
     let mut pods = Pods(Vec::new());
+    let panics = Arc::new(AtomicU64::new(0));
+    let mut forwarders = Vec::new();
     let pods_n = scene.clusters.len() as u64;
     for (index, cluster) in scene.clusters.iter().enumerate() {
-        let child = spawn_pod(
+        let (child, forwarder) = spawn_pod(
             plan,
             &PodLaunch {
                 index,
@@ -225,11 +245,12 @@ pub fn run_pods(
                 start_at: start_at + plan.pod_offset_ns(index, pods_n),
                 ticks,
                 rejoin: false,
-                pipe_stderr: false,
+                panics: &panics,
             },
             &lines,
         )?;
         pods.0.push((cluster.name.clone(), child));
+        forwarders.push(forwarder);
     }
     drop(lines);
 
@@ -283,6 +304,18 @@ pub fn run_pods(
                 "pod {name:?} exited with {status} (its error is above)"
             ));
         }
+    }
+    // Every pod has exited: the forwarders end once they have passed on the last lines.
+    for forwarder in forwarders {
+        if forwarder.join().is_err() {
+            problems.push("a stderr forwarder panicked".into());
+        }
+    }
+    let panicked = panics.load(Ordering::Relaxed);
+    if panicked > 0 {
+        problems.push(format!(
+            "{panicked} panic messages on the pods' stderr (above)"
+        ));
     }
     let wall_s = launched.elapsed().as_secs_f64();
     let mut complete = Vec::new();

@@ -4,7 +4,6 @@
 use seam_sim::wire::{ClusterId, EntityId, EntityState};
 
 use crate::adoption;
-use crate::clock::monotonic_ns;
 
 use super::{Cluster, owner_role};
 
@@ -30,7 +29,7 @@ pub(super) struct Peer {
     pub(super) newest_replication: Option<u64>,
     /// The same for its physics-events frames.
     pub(super) newest_events: Option<u64>,
-    /// Host monotonic time of its last frame taken, ns.
+    /// Host time (`Cluster::host_ns`) of the tick its last frame was taken in, ns.
     pub(super) heard_ns: u64,
 }
 
@@ -61,10 +60,9 @@ impl Cluster {
         let up = self.transport.is_connected();
         if !up || !self.transport_was_up {
             self.transport_was_up = up;
-            let now_ns = monotonic_ns();
             for peer in self.liveness.values_mut() {
                 peer.heard_at = now;
-                peer.heard_ns = now_ns;
+                peer.heard_ns = self.host_ns;
             }
             return;
         }
@@ -72,7 +70,7 @@ impl Cluster {
         // catching up after a stall runs its ticks back to back, faster than its neighbours
         // publish, and must not take them for dead for that.
         let timeout_ns = (timeout as f64 * f64::from(self.config.dt) * 1e9) as u64;
-        let now_ns = monotonic_ns();
+        let now_ns = self.host_ns;
         let mut lost = Vec::new();
         for (&neighbour, peer) in self.liveness.iter_mut() {
             if peer.status == NeighbourStatus::Alive
@@ -85,7 +83,15 @@ impl Cluster {
         }
         for neighbour in lost {
             self.stats.neighbours_lost += 1;
+            let adopted = self.stats.entities_adopted;
             self.adopt_from(neighbour);
+            tracing::warn!(
+                cluster = %self.config.cluster_id,
+                %neighbour,
+                silent_ticks = timeout,
+                adopted = self.stats.entities_adopted - adopted,
+                "neighbour taken for dead: its proxies despawned, its entities adopted"
+            );
         }
     }
 
@@ -175,7 +181,7 @@ impl Cluster {
             }
             peer.status = NeighbourStatus::Alive;
             peer.heard_at = now;
-            peer.heard_ns = monotonic_ns();
+            peer.heard_ns = self.host_ns;
             let newest = if replication {
                 &mut peer.newest_replication
             } else {
@@ -183,7 +189,14 @@ impl Cluster {
             };
             *newest = Some(newest.map_or(tick, |t| t.max(tick)));
             if back {
+                let returned = self.stats.entities_returned;
                 self.return_adopted(neighbour);
+                tracing::info!(
+                    cluster = %self.config.cluster_id,
+                    %neighbour,
+                    returned = self.stats.entities_returned - returned,
+                    "neighbour back: what was adopted from it is handed back"
+                );
             }
         }
     }
@@ -237,7 +250,7 @@ impl Cluster {
         let dt_ns = (f64::from(self.config.dt) * 1e9).max(1.0);
         let mine = self.sim.tick();
         self.liveness.get(&neighbour).is_some_and(|peer| {
-            let elapsed = (monotonic_ns().saturating_sub(peer.heard_ns) as f64 / dt_ns) as u64;
+            let elapsed = (self.host_ns.saturating_sub(peer.heard_ns) as f64 / dt_ns) as u64;
             peer.status == NeighbourStatus::Alive
                 && peer
                     .newest_replication

@@ -86,6 +86,9 @@ pub struct Cluster {
     adopted: IdMap<EntityId, ClusterId>,
     /// Whether the transport was connected at the last liveness check.
     transport_was_up: bool,
+    /// Host monotonic time of the tick being run, ns (see [`Cluster::tick_at`]): the clock
+    /// liveness counts silence on, and the time a frame taken in is heard at.
+    host_ns: u64,
     /// Ticking free-running (`tick`, `wait`) rather than in lock-step: the inbox then keeps
     /// one replication frame per neighbour.
     free_running: bool,
@@ -132,6 +135,12 @@ impl Cluster {
             .map(|&n| (n, Peer::new()))
             .collect();
         let config_authority = config.authority;
+        tracing::debug!(
+            cluster = %config.cluster_id,
+            neighbours = config.neighbours.len(),
+            transport = %seam_transport::redact_url(&config.transport),
+            "cluster open"
+        );
         Ok(Self {
             replication_channel: channels::replication(config.cluster_id),
             interest: Interest::new(config.region, config.spread),
@@ -151,6 +160,7 @@ impl Cluster {
             last_states: IdMap::default(),
             adopted: IdMap::default(),
             transport_was_up: true,
+            host_ns: monotonic_ns(),
             free_running: false,
             contact_merge: ContactMerge::default(),
             outgoing_impulses: IdMap::default(),
@@ -309,11 +319,26 @@ impl Cluster {
 
     /// One tick using whatever has arrived (free-running pods). A neighbour silent for more
     /// than `neighbour_timeout_ticks` is taken for dead first (see [`NeighbourStatus`]).
+    /// The same as [`Cluster::tick_at`] at the host's monotonic time now.
     pub fn tick(
         &mut self,
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
+        self.tick_at(monotonic_ns(), user)
+    }
+
+    /// [`Cluster::tick`] with the host time given, in [`monotonic_ns`] nanoseconds: a
+    /// neighbour is taken for dead only once it has been silent for `neighbour_timeout_ticks`
+    /// ticks *and* that many `dt` of this clock, so a pod catching up after a stall (ticks back
+    /// to back) does not take its neighbours for dead. Frames taken in since the last tick
+    /// count as heard at `now_ns`. Tests drive this clock by hand instead of sleeping.
+    pub fn tick_at(
+        &mut self,
+        now_ns: u64,
+        user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
+    ) -> Result<(), ClusterError> {
         self.free_running = true;
+        self.host_ns = now_ns;
         self.drain()?;
         self.check_liveness();
         let frames = self.inbox.take_all();
@@ -334,6 +359,7 @@ impl Cluster {
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
         self.free_running = false;
+        self.host_ns = monotonic_ns();
         let tick = self.sim.tick();
         if tick > 0 {
             let replication = tick.is_multiple_of(self.config.replication_interval);

@@ -1,13 +1,13 @@
 //! Builders for the wire types, so game code names what it sets and leaves the rest at rest:
 //!
 //! ```
-//! use seam_sim::wire::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+//! use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape};
 //!
 //! let west = ClusterId::named("match-42", "west");
 //! let crate_ = EntityState::new(
 //!     EntityId::named("match-42", "crate"),
 //!     west,
-//!     BodyShape::new(Shape::cuboid(0.5, 0.5, 0.5)).density(500.0),
+//!     BodySpec::new(Shape::cuboid(0.5, 0.5, 0.5)).density(500.0),
 //! )
 //! .at([10.0, 0.5, 0.0])
 //! .velocity([-2.0, 0.0, 0.0]);
@@ -15,7 +15,7 @@
 //! assert_eq!(crate_.rotation, [0.0, 0.0, 0.0, 1.0]);
 //! ```
 
-use super::{BodyShape, ClusterId, EntityId, EntityState, Shape};
+use super::{BodySpec, ClusterId, EntityId, EntityState, Shape};
 
 impl Shape {
     /// A sphere of `radius` metres.
@@ -40,7 +40,7 @@ impl Shape {
     }
 }
 
-impl BodyShape {
+impl BodySpec {
     /// `shape` with density 1 000 kg/m³ (water), no CCD, simulated by its owner.
     pub fn new(shape: Shape) -> Self {
         Self {
@@ -66,7 +66,7 @@ impl BodyShape {
 impl EntityState {
     /// Entity `id`, owned by `owner`, with `body`: at the origin, unrotated, at rest, at tick
     /// 0 and epoch 0 (what a spawn needs; the cluster fills in the rest as it runs).
-    pub fn new(id: EntityId, owner: ClusterId, body: BodyShape) -> Self {
+    pub fn new(id: EntityId, owner: ClusterId, body: BodySpec) -> Self {
         Self {
             id,
             cluster_id: owner,
@@ -108,7 +108,7 @@ mod tests {
     #[test]
     fn a_built_state_is_the_literal_it_stands_for() {
         let (id, owner) = (EntityId::from_u128(7), ClusterId::from_u128(9));
-        let built = EntityState::new(id, owner, BodyShape::new(Shape::ball(0.25)).ccd(true))
+        let built = EntityState::new(id, owner, BodySpec::new(Shape::ball(0.25)).ccd(true))
             .at([1.0, 2.0, 3.0])
             .rotated([0.0, 1.0, 0.0, 0.0])
             .velocity([4.0, 0.0, 0.0])
@@ -122,7 +122,7 @@ mod tests {
             rotation: [0.0, 1.0, 0.0, 0.0],
             linvel: [4.0, 0.0, 0.0],
             angvel: [0.0, 0.0, 5.0],
-            body: BodyShape {
+            body: BodySpec {
                 shape: Shape::Ball { radius: 0.25 },
                 density: 1000.0,
                 ccd: true,

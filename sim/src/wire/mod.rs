@@ -38,11 +38,11 @@ pub enum Shape {
     },
 }
 
-/// What a body is made of beyond its pose: shape, density and whether it needs continuous
-/// collision detection. It travels with every state so a cluster that takes authority over an
+/// The spec of the body an entity is, beyond its pose: shape, density, whether it needs
+/// continuous collision detection, and whether its owner simulates it. It travels with every state so a cluster that takes authority over an
 /// entity simulates it with the same mass and CCD as the previous owner.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct BodyShape {
+pub struct BodySpec {
     /// The collision shape.
     pub shape: Shape,
     /// Density in kg/m³ (mass = density × volume).
@@ -81,7 +81,7 @@ pub struct EntityState {
     /// Angular velocity, rad/s.
     pub angvel: [f32; 3],
     /// Shape, density, CCD.
-    pub body: BodyShape,
+    pub body: BodySpec,
 }
 
 impl EntityState {

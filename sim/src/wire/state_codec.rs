@@ -11,7 +11,7 @@ use serde::ser::SerializeTuple;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use uuid::Uuid;
 
-use super::{BodyShape, ClusterId, EntityId, EntityState};
+use super::{BodySpec, ClusterId, EntityId, EntityState};
 
 /// Bytes of the fixed-size block: two ids and 13 floats.
 const BLOCK: usize = 16 + 16 + 13 * 4;
@@ -85,7 +85,7 @@ impl<'de> Deserialize<'de> for EntityState {
                 let ReadBlock(block) = seq.next_element()?.ok_or_else(|| missing(0))?;
                 let tick: u64 = seq.next_element()?.ok_or_else(|| missing(1))?;
                 let epoch: u32 = seq.next_element()?.ok_or_else(|| missing(2))?;
-                let body: BodyShape = seq.next_element()?.ok_or_else(|| missing(3))?;
+                let body: BodySpec = seq.next_element()?.ok_or_else(|| missing(3))?;
                 let id = |at: usize| {
                     let mut bytes = [0u8; 16];
                     bytes.copy_from_slice(&block[at..at + 16]);

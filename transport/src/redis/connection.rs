@@ -58,6 +58,10 @@ impl RedisTransport {
             backoff: BACKOFF.0,
         });
         self.intake.stats.disconnects += 1;
+        tracing::warn!(
+            server = %self.endpoint.addr,
+            "Redis server unreachable: publishes are dropped (counted) while reconnecting"
+        );
         self.current = None;
         self.early.clear();
         self.discard = 0;
@@ -75,15 +79,27 @@ impl RedisTransport {
         match self.reconnect() {
             Ok(()) => {
                 if let Some(outage) = self.outage.take() {
-                    self.intake.stats.down_ns += outage.since.elapsed().as_nanos() as u64;
+                    let down = outage.since.elapsed();
+                    self.intake.stats.down_ns += down.as_nanos() as u64;
+                    tracing::info!(
+                        server = %self.endpoint.addr,
+                        down_ms = down.as_millis() as u64,
+                        "Redis server reachable again; subscriptions renewed"
+                    );
                 }
                 self.intake.stats.reconnects += 1;
                 true
             }
-            Err(_) => {
+            Err(reason) => {
                 if let Some(outage) = &mut self.outage {
                     outage.backoff = (outage.backoff * 2).min(BACKOFF.1);
                     outage.next_attempt = Instant::now() + outage.backoff;
+                    tracing::debug!(
+                        server = %self.endpoint.addr,
+                        retry_in_ms = outage.backoff.as_millis() as u64,
+                        "reconnect failed: {}",
+                        self.endpoint.scrub(reason)
+                    );
                 }
                 false
             }

@@ -3,6 +3,7 @@
 
 use seam_bench::accuracy::{self, TrialSettings};
 use seam_bench::chaos::ChaosPlan;
+use seam_bench::console::Progress;
 use seam_bench::node;
 use seam_bench::run::{self, RunPlan};
 
@@ -16,9 +17,12 @@ pub(crate) fn compare(
     output: Output,
 ) -> Result<(), String> {
     let mut results = Vec::new();
+    let mut progress = Progress::new(Some(scenes.len() as u64));
     for path in scenes {
+        progress.status(&format!("{}: split and one world", path.display()));
         let scene = seam_bench::scene::load(path).map_err(|e| e.to_string())?;
         let result = accuracy::run_trial(&scene, settings, &run::fresh_run_id(), trace)?;
+        progress.step(&path.display().to_string());
         if output.json {
             println!(
                 "{}",
@@ -81,24 +85,20 @@ pub(crate) fn sweep(
     {
         match seam_transport::open(&transport) {
             Ok(_) => grid.transports.push(transport),
-            Err(e) => eprintln!("seam sweep: leaving out the transport axis on {e}"),
+            Err(e) => tracing::warn!("seam sweep: leaving out the transport axis on {e}"),
         }
     }
     let free = accuracy::FreeRunning {
         rate,
         node_command: node_command()?,
     };
-    let started = std::time::Instant::now();
-    let results = seam_bench::sweep::run(&scenes, &grid, ticks, &free, |done, total, line| {
-        let width = 30;
-        let filled = done * width / total.max(1);
-        eprintln!(
-            "[{}{}] {done}/{total} {:.0} s  {line}",
-            "#".repeat(filled),
-            ".".repeat(width - filled),
-            started.elapsed().as_secs_f64()
-        );
+    let mut progress = None;
+    let results = seam_bench::sweep::run(&scenes, &grid, ticks, &free, |_, total, line| {
+        progress
+            .get_or_insert_with(|| Progress::new(Some(total as u64)))
+            .step(line);
     })?;
+    drop(progress);
     for path in seam_bench::sweep::write(&results, out)? {
         println!("wrote {}", path.display());
     }
@@ -113,13 +113,10 @@ pub(crate) fn expand_transport(name: &str) -> String {
     }
 }
 
-/// A progress printer for a run of `total` rows: `[done/total] row` on stderr.
+/// Progress through `total` rows, one step per row (see [`Progress`]).
 pub(crate) fn progress(total: usize) -> impl FnMut(&str) {
-    let mut done = 0;
-    move |row| {
-        done += 1;
-        eprintln!("[{done}/{total}] {row}");
-    }
+    let mut progress = Progress::new(Some(total as u64));
+    move |row| progress.step(row)
 }
 
 /// How `seam run`, `chaos` and `sweep` start a pod: this executable's `node` command.
@@ -137,6 +134,7 @@ pub(crate) fn run_scene(mut plan: RunPlan) -> Result<run::RunReport, String> {
         plan.scene.display(),
         seam_transport::redact_url(&plan.transport)
     );
+    let shown = Progress::new(None);
     run::run(&plan, &stop, |progress| {
         let pods: Vec<String> = progress
             .pods
@@ -149,7 +147,7 @@ pub(crate) fn run_scene(mut plan: RunPlan) -> Result<run::RunReport, String> {
         } else {
             pods.join(" · ")
         };
-        eprintln!("[{:5.1} s] {pods}", progress.elapsed_s);
+        shown.status(&format!("[{:5.1} s] {pods}", progress.elapsed_s));
     })
 }
 
@@ -174,7 +172,9 @@ pub(crate) fn chaos(mut plan: ChaosPlan, output: Output) -> Result<(), String> {
         plan.duration.as_secs_f64(),
         plan.fault_every.as_secs_f64()
     );
-    let report = seam_bench::chaos::run(&plan, &stop, |line| eprintln!("{line}"))?;
+    let progress = Progress::new(None);
+    let report = seam_bench::chaos::run(&plan, &stop, |line| progress.status(line))?;
+    drop(progress);
     output.report(
         &report,
         seam_bench::chaos::table,

@@ -16,7 +16,9 @@ use cli::{Cli, Command};
 use commands::{chaos, compare, expand_transport, progress, run_scene, seconds, sweep};
 
 fn main() -> ExitCode {
-    let result = match Cli::parse().command {
+    let cli = Cli::parse();
+    seam_bench::console::init_logs();
+    let result = match cli.command {
         Command::Run {
             scene,
             transport,
