@@ -4,7 +4,7 @@
 //! and frame-level detail) and written one event per line. Progress is a bar (indicatif) when
 //! stderr is a terminal and a plain line per step otherwise, so a log file or CI output reads as
 //! lines. While a bar is drawn, log lines and the pods' forwarded lines are printed above it,
-//! never through it: everything on stderr goes through [`line`] or the log writer here.
+//! never through it: everything on stderr goes through [`line()`] or the log writer here.
 
 use std::io::{IsTerminal, Write};
 use std::sync::Mutex;
