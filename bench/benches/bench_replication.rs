@@ -7,12 +7,14 @@
 //!   to 10 000 Fixed proxies, then the receiving world stepped — on `local` and on `shm`, both
 //!   ends in this process; `apply_only`, the applying alone; and `rapier_floor`, what Rapier
 //!   itself costs for the same work with no seam: 10 000 Fixed balls' poses set directly and
-//!   the world stepped. The end-to-end case is judged against the floor.
+//!   the world stepped. The end-to-end case is judged against the floor: after the group, a
+//!   paired run alternates the two (shm) and prints the ratio of their medians, which holds
+//!   still on a noisy machine where the group's separate estimates drift.
 
 // criterion_group! generates a public function without docs.
 #![allow(missing_docs)]
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use seam_sim::wire::{
@@ -20,6 +22,7 @@ use seam_sim::wire::{
     ReplicationFrame, RoutedOp, Shape,
 };
 use seam_sim::{BodyRole, ClusterSim, SimConfig};
+use seam_transport::Transport;
 
 const STATES: usize = 10_000;
 
@@ -71,21 +74,27 @@ fn state(i: usize, owner: ClusterId) -> EntityState {
     }
 }
 
-fn end_to_end(c: &mut Criterion) {
-    let mut group = c.benchmark_group("replication_10k_end_to_end");
-    group
-        .sample_size(50)
-        .measurement_time(Duration::from_secs(6));
-    group.throughput(Throughput::Elements(STATES as u64));
-    let owner = ClusterId::from_u128(1);
-    let mut frame = ReplicationFrame {
-        from: owner,
-        tick: 1,
-        states: (0..STATES).map(|i| state(i, owner)).collect(),
-    };
-    for backend in ["local", "shm"] {
+/// One receiving cluster's share of replication, end to end on one transport: a frame of
+/// 10 000 states encoded into the transport's buffer, published, received, decoded from the
+/// received bytes, applied to 10 000 Fixed proxies, and the world stepped.
+struct EndToEnd {
+    publisher: Box<dyn Transport>,
+    subscriber: Box<dyn Transport>,
+    channel: String,
+    frame: ReplicationFrame,
+    proxies: ClusterSim,
+}
+
+impl EndToEnd {
+    fn new(backend: &str) -> Self {
+        let owner = ClusterId::from_u128(1);
+        let frame = ReplicationFrame {
+            from: owner,
+            tick: 1,
+            states: (0..STATES).map(|i| state(i, owner)).collect(),
+        };
         let url = format!("{backend}?prefix=seam_bench_repl_{}_", std::process::id());
-        let mut publisher = seam_transport::open(&url).expect("open");
+        let publisher = seam_transport::open(&url).expect("open");
         let mut subscriber = seam_transport::open(&url).expect("open");
         let channel = seam_proxy::replication(owner);
         subscriber.subscribe(&channel).expect("subscribe");
@@ -93,74 +102,138 @@ fn end_to_end(c: &mut Criterion) {
         for state in &frame.states {
             proxies.spawn(state, BodyRole::Fixed).expect("proxy");
         }
-        let mut tick = 1u64;
-        group.bench_function(backend, |b| {
-            b.iter(|| {
-                tick += 1;
-                frame.tick = tick;
-                for state in &mut frame.states {
-                    state.position[0] += 0.01;
-                }
-                let len = frame.max_encoded_len();
-                publisher
-                    .publish_with(&channel, len, &mut |out| {
-                        wire::encode_into(&frame, out).ok()
-                    })
-                    .expect("publish");
-                let message = subscriber
-                    .receive_timeout(Duration::from_secs(5))
-                    .expect("receive")
-                    .expect("the frame arrives");
-                let received: ReplicationFrame = wire::decode(message.payload).expect("valid");
-                for state in &received.states {
-                    proxies.apply_state(state).expect("proxy update");
-                }
-                proxies.step();
+        Self {
+            publisher,
+            subscriber,
+            channel,
+            frame,
+            proxies,
+        }
+    }
+
+    fn iteration(&mut self) {
+        self.frame.tick += 1;
+        for state in &mut self.frame.states {
+            state.position[0] += 0.01;
+        }
+        let (frame, len) = (&self.frame, self.frame.max_encoded_len());
+        self.publisher
+            .publish_with(&self.channel, len, &mut |out| {
+                wire::encode_into(frame, out).ok()
             })
-        });
+            .expect("publish");
+        let message = self
+            .subscriber
+            .receive_timeout(Duration::from_secs(5))
+            .expect("receive")
+            .expect("the frame arrives");
+        let received: ReplicationFrame = wire::decode(message.payload).expect("valid");
+        for state in &received.states {
+            self.proxies.apply_state(state).expect("proxy update");
+        }
+        self.proxies.step();
     }
-    // The last stage alone: applying the 10 000 states to the proxies.
-    let mut proxies = ClusterSim::new(SimConfig::new(ClusterId::from_u128(2)));
-    for state in &frame.states {
-        proxies.spawn(state, BodyRole::Fixed).expect("proxy");
-    }
-    group.bench_function("apply_only", |b| {
-        b.iter(|| {
-            for state in &mut frame.states {
-                state.position[0] += 0.01;
-                proxies.apply_state(state).expect("proxy update");
-            }
-        })
-    });
-    group.bench_function("rapier_floor", rapier_floor());
-    group.finish();
 }
 
 /// The floor: 10 000 Fixed balls in a plain Rapier world, each moved by setting its pose, then
 /// the world stepped — what any replication onto Rapier bodies costs at least.
-fn rapier_floor() -> impl FnMut(&mut criterion::Bencher<'_>) {
-    use rapier3d::prelude::*;
-    let mut world = PhysicsWorld::new();
-    world.integration_parameters.dt = 1.0 / 60.0;
-    let handles: Vec<(RigidBodyHandle, Vector)> = (0..STATES)
-        .map(|i| {
-            let at = Vector::from_array(state(i, ClusterId::from_u128(1)).position);
-            let body = RigidBodyBuilder::fixed().translation(at);
-            let (handle, _) = world.insert(body, ColliderBuilder::ball(0.5));
-            (handle, at)
-        })
-        .collect();
-    let mut offset = 0.0f32;
-    move |b| {
-        b.iter(|| {
-            offset += 0.01;
-            for &(handle, at) in &handles {
-                let to = at + Vector::new(offset, 0.0, 0.0);
-                world.bodies[handle].set_translation(to, false);
-            }
-            world.step();
-        })
+struct RapierFloor {
+    world: rapier3d::prelude::PhysicsWorld,
+    bodies: Vec<(
+        rapier3d::prelude::RigidBodyHandle,
+        rapier3d::prelude::Vector,
+    )>,
+    offset: f32,
+}
+
+impl RapierFloor {
+    fn new() -> Self {
+        use rapier3d::prelude::*;
+        let mut world = PhysicsWorld::new();
+        world.integration_parameters.dt = 1.0 / 60.0;
+        let bodies = (0..STATES)
+            .map(|i| {
+                let at = Vector::from_array(state(i, ClusterId::from_u128(1)).position);
+                let body = RigidBodyBuilder::fixed().translation(at);
+                let (handle, _) = world.insert(body, ColliderBuilder::ball(0.5));
+                (handle, at)
+            })
+            .collect();
+        Self {
+            world,
+            bodies,
+            offset: 0.0,
+        }
     }
+
+    fn iteration(&mut self) {
+        self.offset += 0.01;
+        for &(handle, at) in &self.bodies {
+            let to = at + rapier3d::prelude::Vector::new(self.offset, 0.0, 0.0);
+            self.world.bodies[handle].set_translation(to, false);
+        }
+        self.world.step();
+    }
+}
+
+fn end_to_end(c: &mut Criterion) {
+    let mut group = c.benchmark_group("replication_10k_end_to_end");
+    group
+        .sample_size(50)
+        .measurement_time(Duration::from_secs(6));
+    group.throughput(Throughput::Elements(STATES as u64));
+    for backend in ["local", "shm"] {
+        let mut case = EndToEnd::new(backend);
+        group.bench_function(backend, |b| b.iter(|| case.iteration()));
+    }
+    // The last stage alone: applying the 10 000 states to the proxies.
+    let mut case = EndToEnd::new("local");
+    group.bench_function("apply_only", |b| {
+        b.iter(|| {
+            for state in &mut case.frame.states {
+                state.position[0] += 0.01;
+                case.proxies.apply_state(state).expect("proxy update");
+            }
+        })
+    });
+    let mut floor = RapierFloor::new();
+    group.bench_function("rapier_floor", |b| b.iter(|| floor.iteration()));
+    group.finish();
+    paired_ratio();
+}
+
+/// Alternates shm end-to-end iterations and floor iterations and compares medians, so machine
+/// noise falls on both alike; prints the ratio the target is judged by.
+fn paired_ratio() {
+    const WARMUP: usize = 30;
+    const ROUNDS: usize = 300;
+    let mut case = EndToEnd::new("shm");
+    let mut floor = RapierFloor::new();
+    for _ in 0..WARMUP {
+        case.iteration();
+        floor.iteration();
+    }
+    let (mut seam_times, mut floor_times) = (Vec::new(), Vec::new());
+    for _ in 0..ROUNDS {
+        let t = Instant::now();
+        case.iteration();
+        seam_times.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        floor.iteration();
+        floor_times.push(t.elapsed().as_secs_f64());
+    }
+    let median = |times: &mut Vec<f64>| {
+        times.sort_by(f64::total_cmp);
+        times[times.len() / 2]
+    };
+    let (seam, floor) = (median(&mut seam_times), median(&mut floor_times));
+    eprintln!(
+        "replication_10k paired, {ROUNDS} alternating rounds after {WARMUP} warm-up: \
+         end to end on shm median {:.3} ms, Rapier floor median {:.3} ms, end to end / floor = {:.2}",
+        seam * 1e3,
+        floor * 1e3,
+        seam / floor
+    );
 }
 
 criterion_group!(benches, op_batch, end_to_end);

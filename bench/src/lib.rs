@@ -29,7 +29,7 @@
 //! - [`markdown`] — tables as the documents quote them (`--markdown`).
 //! - `benches/` — criterion: `bench_transport` (publish → receive per backend), `bench_sim`
 //!   (a tick against raw Rapier, the wire), `bench_proxy` (tick cost with 0 / 1 000 / 10 000
-//!   proxies), `bench_replication` (op batches; 10 000 states end to end).
+//!   proxies), `bench_replication` (op batches; 10 000 states end to end against the Rapier floor).
 
 pub mod accuracy;
 pub mod chaos;

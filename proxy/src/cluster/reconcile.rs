@@ -107,6 +107,15 @@ impl Cluster {
             };
             if outcome.is_err() {
                 self.stats.states_rejected += 1;
+                tracing::debug!(
+                    cluster = %me,
+                    %from,
+                    entity = %state.id,
+                    claimed_owner = %state.cluster_id,
+                    known = ?known,
+                    epoch = state.epoch,
+                    "state rejected"
+                );
             }
         }
         // Proxies of this neighbour that its frame no longer lists have left (or were
