@@ -14,7 +14,7 @@
 // criterion_group! generates a public function without docs.
 #![allow(missing_docs)]
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use seam_sim::wire::{
@@ -209,24 +209,12 @@ fn paired_ratio() {
     const ROUNDS: usize = 300;
     let mut case = EndToEnd::new("shm");
     let mut floor = RapierFloor::new();
-    for _ in 0..WARMUP {
-        case.iteration();
-        floor.iteration();
-    }
-    let (mut seam_times, mut floor_times) = (Vec::new(), Vec::new());
-    for _ in 0..ROUNDS {
-        let t = Instant::now();
-        case.iteration();
-        seam_times.push(t.elapsed().as_secs_f64());
-        let t = Instant::now();
-        floor.iteration();
-        floor_times.push(t.elapsed().as_secs_f64());
-    }
-    let median = |times: &mut Vec<f64>| {
-        times.sort_by(f64::total_cmp);
-        times[times.len() / 2]
-    };
-    let (seam, floor) = (median(&mut seam_times), median(&mut floor_times));
+    let (seam, floor) = seam_bench::latency::paired_medians(
+        WARMUP,
+        ROUNDS,
+        || case.iteration(),
+        || floor.iteration(),
+    );
     eprintln!(
         "replication_10k paired, {ROUNDS} alternating rounds after {WARMUP} warm-up: \
          end to end on shm median {:.3} ms, Rapier floor median {:.3} ms, end to end / floor = {:.2}",

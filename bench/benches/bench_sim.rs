@@ -192,24 +192,12 @@ fn paired_ratio(order: Order, name: &str) {
     let mut raw = raw_world(order);
     let (mut sim, mut kinematic) = seam_world(order);
     let mut tick = 0;
-    for _ in 0..WARMUP {
-        raw_tick(&mut raw);
-        seam_tick(&mut sim, &mut kinematic, &mut tick);
-    }
-    let (mut raw_times, mut seam_times) = (Vec::new(), Vec::new());
-    for _ in 0..TICKS {
-        let t = std::time::Instant::now();
-        raw_tick(&mut raw);
-        raw_times.push(t.elapsed().as_secs_f64());
-        let t = std::time::Instant::now();
-        seam_tick(&mut sim, &mut kinematic, &mut tick);
-        seam_times.push(t.elapsed().as_secs_f64());
-    }
-    let median = |times: &mut Vec<f64>| {
-        times.sort_by(f64::total_cmp);
-        times[times.len() / 2]
-    };
-    let (raw, seam) = (median(&mut raw_times), median(&mut seam_times));
+    let (raw, seam) = seam_bench::latency::paired_medians(
+        WARMUP,
+        TICKS,
+        || raw_tick(&mut raw),
+        || seam_tick(&mut sim, &mut kinematic, &mut tick),
+    );
     eprintln!(
         "sim_step paired ({name}), {TICKS} alternating ticks of {BODIES} bodies after {WARMUP} warm-up: \
          raw Rapier median {:.3} ms, ClusterSim median {:.3} ms, ClusterSim / raw = {:.3}",

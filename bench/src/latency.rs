@@ -98,6 +98,34 @@ impl From<LatencyRecorder> for Vec<(u64, u64)> {
     }
 }
 
+/// Median times, seconds, of `a` and `b` run alternately `rounds` times after `warmup` rounds
+/// of each: a ratio of the two holds still on a noisy machine, where noise falls on both alike.
+pub fn paired_medians(
+    warmup: usize,
+    rounds: usize,
+    mut a: impl FnMut(),
+    mut b: impl FnMut(),
+) -> (f64, f64) {
+    for _ in 0..warmup {
+        a();
+        b();
+    }
+    let (mut a_times, mut b_times) = (Vec::with_capacity(rounds), Vec::with_capacity(rounds));
+    for _ in 0..rounds {
+        let t = std::time::Instant::now();
+        a();
+        a_times.push(t.elapsed().as_secs_f64());
+        let t = std::time::Instant::now();
+        b();
+        b_times.push(t.elapsed().as_secs_f64());
+    }
+    let median = |times: &mut Vec<f64>| {
+        times.sort_by(f64::total_cmp);
+        times.get(times.len() / 2).copied().unwrap_or(0.0)
+    };
+    (median(&mut a_times), median(&mut b_times))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -93,6 +93,9 @@ pub struct ClusterStats {
     pub op_timings_dropped: u64,
     /// Bytes of replication frames published (encoded frames, without transport framing).
     pub replication_bytes: u64,
+    /// States listed in the replication frames published: this cluster's own and repeated
+    /// hand-offs.
+    pub states_replicated: u64,
     /// Bytes of physics-events frames published.
     pub events_bytes: u64,
     /// Neighbours taken for dead after `neighbour_timeout_ticks` of silence (their proxies

@@ -167,6 +167,13 @@ pub fn run_free_trial(
                 / 1e3,
             replication_bytes_per_tick: bytes(|s| s.replication_bytes),
             events_bytes_per_tick: bytes(|s| s.events_bytes),
+            bytes_per_state: {
+                let mut stats = seam_proxy::ClusterStats::default();
+                for pod in &report.pods {
+                    stats += &pod.cluster_stats;
+                }
+                super::per_state(&stats)
+            },
             proxies_mean: report.pods.iter().map(|p| p.proxies_peak as f64).sum(),
             ops: ops.ops,
             op_delay_p50_ticks: ops.ticks.p50,

@@ -131,6 +131,8 @@ pub struct Cost {
     pub replication_bytes_per_tick: f64,
     /// Physics-events bytes published per tick, all clusters.
     pub events_bytes_per_tick: f64,
+    /// Replication bytes per state published (frame headers included).
+    pub bytes_per_state: f64,
     /// Proxies modelled, all clusters: the mean over ticks (lock-step), or the sum of each
     /// pod's peak (free-running pods).
     pub proxies_mean: f64,
@@ -231,11 +233,10 @@ pub fn run_trial(
 
     let ticks = scene.ticks.max(1);
     let mut ops = OpStages::default();
-    let (mut replication_bytes, mut events_bytes) = (0u64, 0u64);
+    let mut stats = seam_proxy::ClusterStats::default();
     for pod in &pods {
         ops.merge(pod.op_stages());
-        replication_bytes += pod.cluster().stats().replication_bytes;
-        events_bytes += pod.cluster().stats().events_bytes;
+        stats += &pod.cluster().stats();
     }
     let mut p50s: Vec<u64> = tick_times.iter().map(|t| t.summary().p50_ns).collect();
     p50s.sort_unstable();
@@ -256,8 +257,9 @@ pub fn run_trial(
                 .max()
                 .unwrap_or(0) as f64
                 / 1e3,
-            replication_bytes_per_tick: replication_bytes as f64 / ticks as f64,
-            events_bytes_per_tick: events_bytes as f64 / ticks as f64,
+            replication_bytes_per_tick: stats.replication_bytes as f64 / ticks as f64,
+            events_bytes_per_tick: stats.events_bytes as f64 / ticks as f64,
+            bytes_per_state: per_state(&stats),
             proxies_mean: proxies_sum as f64 / ticks as f64,
             ops: ops.ops,
             op_delay_p50_ticks: ops.ticks.p50,
@@ -268,6 +270,15 @@ pub fn run_trial(
             op_transport_p50_us: ops.transport.p50_ns as f64 / 1e3,
         },
     })
+}
+
+/// Replication bytes per state published (0 when none was).
+pub(crate) fn per_state(stats: &seam_proxy::ClusterStats) -> f64 {
+    if stats.states_replicated == 0 {
+        0.0
+    } else {
+        stats.replication_bytes as f64 / stats.states_replicated as f64
+    }
 }
 
 fn ratio(value: Option<f64>) -> String {
@@ -296,7 +307,8 @@ pub fn table(r: &TrialResult) -> String {
          cost (split run)\n\
          \x20 tick time            p50 {:.1} µs (median cluster), p99 {:.1} µs (worst), p50s \
          summed over clusters {:.1} µs; one world p50 {:.1} µs\n\
-         \x20 bytes per tick       {:.0} replication, {:.0} physics events (all clusters)\n\
+         \x20 bytes per tick       {:.0} replication, {:.0} physics events (all clusters); {:.1} bytes per \
+         replicated state\n\
          \x20 proxies              {:.1} on average\n\
          \x20 routed ops           {}, delay p50 {} tick(s), max {}; whole p50 {:.1} µs, p99 {:.1} µs, \
          transport p50 {:.1} µs\n",
@@ -350,6 +362,7 @@ pub fn table(r: &TrialResult) -> String {
         c.reference_tick_p50_us,
         c.replication_bytes_per_tick,
         c.events_bytes_per_tick,
+        c.bytes_per_state,
         c.proxies_mean,
         c.ops,
         c.op_delay_p50_ticks,

@@ -120,6 +120,7 @@ impl Cluster {
                 tick,
                 states,
             };
+            self.stats.states_replicated += frame.states.len() as u64;
             self.stats.replication_bytes +=
                 publish_frame(self.transport.as_mut(), &self.replication_channel, &frame)? as u64;
             let role = self.proxy_role();
