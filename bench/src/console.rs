@@ -1,7 +1,7 @@
 //! What `seam` writes to stderr: log lines through `tracing`, and progress.
 //!
-//! Logs are filtered by `RUST_LOG` (`info` when unset; `RUST_LOG=seam_proxy=debug` adds hand-offs
-//! and frame-level detail) and written one event per line. Progress is a bar (indicatif) when
+//! Logs are filtered by `RUST_LOG` (`info` when unset; `RUST_LOG=debug` adds clusters opened,
+//! failed reconnect attempts and each rejected state with why) and written one event per line. Progress is a bar (indicatif) when
 //! stderr is a terminal and a plain line per step otherwise, so a log file or CI output reads as
 //! lines. While a bar is drawn, log lines and the pods' forwarded lines are printed above it,
 //! never through it: everything on stderr goes through [`line()`] or the log writer here.
