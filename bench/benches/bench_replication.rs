@@ -3,13 +3,17 @@
 //! `cargo bench -p seam-bench --bench bench_replication`:
 //! - `op_batch`: encoding and decoding a physics-events frame of 1, 16 and 256 routed ops.
 //! - `replication_10k_end_to_end`: one replication frame of 10 000 states, encoded straight into
-//!   the transport's buffer, published, received, decoded from the received bytes and applied
-//!   to 10 000 Fixed proxies, then the receiving world stepped — on `local` and on `shm`, both
-//!   ends in this process; `apply_only`, the applying alone; and `rapier_floor`, what Rapier
+//!   the transport's buffer, published, received, its records read in place from the received
+//!   bytes and applied to 10 000 Fixed proxies, then the receiving world stepped — on `local`
+//!   and on `shm`, both ends in this process; `shm_quantized`, the same with quantized states;
+//!   `shm_interest_10pct`, a receiver modelling one entity in ten; `apply_only`, the applying alone; and `rapier_floor`, what Rapier
 //!   itself costs for the same work with no seam: 10 000 Fixed balls' poses set directly and
-//!   the world stepped. The end-to-end case is judged against the floor: after the group, a
+//!   the world stepped; `rapier_floor_kinematic` and `rapier_floor_parentless`, the same with
+//!   position-based kinematic bodies moved by `set_next_kinematic_position` and with colliders
+//!   that have no body. The end-to-end case is judged against the floor: after the group, a
 //!   paired run alternates the two (shm) and prints the ratio of their medians, which holds
-//!   still on a noisy machine where the group's separate estimates drift.
+//!   still on a noisy machine where the group's separate estimates drift; a second paired run
+//!   sets one entity in ten modelled against all modelled.
 
 // criterion_group! generates a public function without docs.
 #![allow(missing_docs)]
@@ -19,7 +23,7 @@ use std::time::Duration;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use seam_sim::wire::{
     self, BodySpec, ClusterId, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp,
-    ReplicationFrame, RoutedOp, Shape,
+    ReplicationEncoder, ReplicationFrame, ReplicationView, RoutedOp, Shape, StateEncoding,
 };
 use seam_sim::{BodyRole, ClusterSim, SimConfig};
 use seam_transport::Transport;
@@ -75,18 +79,23 @@ fn state(i: usize, owner: ClusterId) -> EntityState {
 }
 
 /// One receiving cluster's share of replication, end to end on one transport: a frame of
-/// 10 000 states encoded into the transport's buffer, published, received, decoded from the
-/// received bytes, applied to 10 000 Fixed proxies, and the world stepped.
+/// 10 000 states encoded into the transport's buffer, published, received, its records read in
+/// place from the received bytes (on shm, the shared-memory sample), applied to the proxies,
+/// and the world stepped. The receiver models every `1 / modelled_every`-th entity: a record
+/// of an entity it models is read and applied; any other has its pose read, as a receiver
+/// must to know whether the entity came into its interest, and is passed over.
 struct EndToEnd {
     publisher: Box<dyn Transport>,
     subscriber: Box<dyn Transport>,
     channel: String,
     frame: ReplicationFrame,
+    encoder: ReplicationEncoder,
+    encoding: StateEncoding,
     proxies: ClusterSim,
 }
 
 impl EndToEnd {
-    fn new(backend: &str) -> Self {
+    fn new(backend: &str, encoding: StateEncoding, modelled_every: usize) -> Self {
         let owner = ClusterId::from_u128(1);
         let frame = ReplicationFrame {
             from: owner,
@@ -99,7 +108,7 @@ impl EndToEnd {
         let channel = seam_proxy::replication(owner);
         subscriber.subscribe(&channel).expect("subscribe");
         let mut proxies = ClusterSim::new(SimConfig::new(ClusterId::from_u128(2)));
-        for state in &frame.states {
+        for state in frame.states.iter().step_by(modelled_every) {
             proxies.spawn(state, BodyRole::Fixed).expect("proxy");
         }
         Self {
@@ -107,6 +116,8 @@ impl EndToEnd {
             subscriber,
             channel,
             frame,
+            encoder: ReplicationEncoder::default(),
+            encoding,
             proxies,
         }
     }
@@ -116,10 +127,12 @@ impl EndToEnd {
         for state in &mut self.frame.states {
             state.position[0] += 0.01;
         }
-        let (frame, len) = (&self.frame, self.frame.max_encoded_len());
+        let frame = &self.frame;
+        let len = self.encoder.prepare(frame, self.encoding).expect("encodes");
+        let encoder = &self.encoder;
         self.publisher
             .publish_with(&self.channel, len, &mut |out| {
-                wire::encode_into(frame, out).ok()
+                encoder.write(frame, out).ok()
             })
             .expect("publish");
         let message = self
@@ -127,35 +140,71 @@ impl EndToEnd {
             .receive_timeout(Duration::from_secs(5))
             .expect("receive")
             .expect("the frame arrives");
-        let received: ReplicationFrame = wire::decode(message.payload).expect("valid");
-        for state in &received.states {
-            self.proxies.apply_state(state).expect("proxy update");
+        let view = ReplicationView::parse(message.payload).expect("valid");
+        let mut interesting = 0.0;
+        for i in 0..view.len() {
+            let state = view.state(i).expect("valid");
+            if self.proxies.info(state.id).is_some() {
+                self.proxies.apply_state(&state).expect("proxy update");
+            } else {
+                interesting += state.position[0];
+            }
         }
+        std::hint::black_box(interesting);
         self.proxies.step();
     }
 }
 
-/// The floor: 10 000 Fixed balls in a plain Rapier world, each moved by setting its pose, then
-/// the world stepped — what any replication onto Rapier bodies costs at least.
+/// How a floor case moves its 10 000 stand-ins (issue 16, item 5: which proxy update is
+/// cheapest in Rapier itself).
+#[derive(Clone, Copy)]
+enum ProxyUpdate {
+    /// A Fixed body set with `set_translation` (what seam's Fixed proxies do).
+    FixedPose,
+    /// A position-based kinematic body given `set_next_kinematic_position`.
+    KinematicNextPose,
+    /// A collider with no body, set with `Collider::set_translation`.
+    Parentless,
+}
+
+/// The floor: 10 000 balls in a plain Rapier world, each moved as `update` says, then the world
+/// stepped — what any replication onto Rapier costs at least.
 struct RapierFloor {
     world: rapier3d::prelude::PhysicsWorld,
-    bodies: Vec<(
-        rapier3d::prelude::RigidBodyHandle,
-        rapier3d::prelude::Vector,
-    )>,
+    bodies: Vec<(StandIn, rapier3d::prelude::Vector)>,
     offset: f32,
 }
 
+/// One stand-in, as its case made it.
+#[derive(Clone, Copy)]
+enum StandIn {
+    Fixed(rapier3d::prelude::RigidBodyHandle),
+    Kinematic(rapier3d::prelude::RigidBodyHandle),
+    Parentless(rapier3d::prelude::ColliderHandle),
+}
+
 impl RapierFloor {
-    fn new() -> Self {
+    fn new(update: ProxyUpdate) -> Self {
         use rapier3d::prelude::*;
         let mut world = PhysicsWorld::new();
         world.integration_parameters.dt = 1.0 / 60.0;
         let bodies = (0..STATES)
             .map(|i| {
                 let at = Vector::from_array(state(i, ClusterId::from_u128(1)).position);
-                let body = RigidBodyBuilder::fixed().translation(at);
-                let (handle, _) = world.insert(body, ColliderBuilder::ball(0.5));
+                let collider = ColliderBuilder::ball(0.5);
+                let handle = match update {
+                    ProxyUpdate::FixedPose => {
+                        let body = RigidBodyBuilder::fixed().translation(at);
+                        StandIn::Fixed(world.insert(body, collider).0)
+                    }
+                    ProxyUpdate::KinematicNextPose => {
+                        let body = RigidBodyBuilder::kinematic_position_based().translation(at);
+                        StandIn::Kinematic(world.insert(body, collider).0)
+                    }
+                    ProxyUpdate::Parentless => {
+                        StandIn::Parentless(world.colliders.insert(collider.translation(at)))
+                    }
+                };
                 (handle, at)
             })
             .collect();
@@ -167,10 +216,17 @@ impl RapierFloor {
     }
 
     fn iteration(&mut self) {
+        use rapier3d::prelude::{Pose, Vector};
         self.offset += 0.01;
         for &(handle, at) in &self.bodies {
-            let to = at + rapier3d::prelude::Vector::new(self.offset, 0.0, 0.0);
-            self.world.bodies[handle].set_translation(to, false);
+            let to = at + Vector::new(self.offset, 0.0, 0.0);
+            match handle {
+                StandIn::Fixed(h) => self.world.bodies[h].set_translation(to, false),
+                StandIn::Kinematic(h) => {
+                    self.world.bodies[h].set_next_kinematic_position(Pose::from_translation(to))
+                }
+                StandIn::Parentless(h) => self.world.colliders[h].set_translation(to),
+            }
         }
         self.world.step();
     }
@@ -183,11 +239,16 @@ fn end_to_end(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(6));
     group.throughput(Throughput::Elements(STATES as u64));
     for backend in ["local", "shm"] {
-        let mut case = EndToEnd::new(backend);
+        let mut case = EndToEnd::new(backend, StateEncoding::Exact, 1);
         group.bench_function(backend, |b| b.iter(|| case.iteration()));
     }
+    let mut case = EndToEnd::new("shm", StateEncoding::Quantized, 1);
+    group.bench_function("shm_quantized", |b| b.iter(|| case.iteration()));
+    // A receiver whose interest holds one entity in ten.
+    let mut case = EndToEnd::new("shm", StateEncoding::Exact, 10);
+    group.bench_function("shm_interest_10pct", |b| b.iter(|| case.iteration()));
     // The last stage alone: applying the 10 000 states to the proxies.
-    let mut case = EndToEnd::new("local");
+    let mut case = EndToEnd::new("local", StateEncoding::Exact, 1);
     group.bench_function("apply_only", |b| {
         b.iter(|| {
             for state in &mut case.frame.states {
@@ -196,23 +257,30 @@ fn end_to_end(c: &mut Criterion) {
             }
         })
     });
-    let mut floor = RapierFloor::new();
-    group.bench_function("rapier_floor", |b| b.iter(|| floor.iteration()));
+    for (name, update) in [
+        ("rapier_floor", ProxyUpdate::FixedPose),
+        ("rapier_floor_kinematic", ProxyUpdate::KinematicNextPose),
+        ("rapier_floor_parentless", ProxyUpdate::Parentless),
+    ] {
+        let mut floor = RapierFloor::new(update);
+        group.bench_function(name, |b| b.iter(|| floor.iteration()));
+    }
     group.finish();
     paired_ratio();
 }
 
 /// Alternates shm end-to-end iterations and floor iterations and compares medians, so machine
-/// noise falls on both alike; prints the ratio the target is judged by.
+/// noise falls on both alike; prints the ratios the targets are judged by: all modelled
+/// against the floor, and a receiver modelling one entity in ten against all modelled.
 fn paired_ratio() {
     const WARMUP: usize = 30;
     const ROUNDS: usize = 300;
-    let mut case = EndToEnd::new("shm");
-    let mut floor = RapierFloor::new();
+    let mut all = EndToEnd::new("shm", StateEncoding::Exact, 1);
+    let mut floor = RapierFloor::new(ProxyUpdate::FixedPose);
     let (seam, floor) = seam_bench::latency::paired_medians(
         WARMUP,
         ROUNDS,
-        || case.iteration(),
+        || all.iteration(),
         || floor.iteration(),
     );
     eprintln!(
@@ -221,6 +289,20 @@ fn paired_ratio() {
         seam * 1e3,
         floor * 1e3,
         seam / floor
+    );
+    let mut tenth = EndToEnd::new("shm", StateEncoding::Exact, 10);
+    let (tenth, all) = seam_bench::latency::paired_medians(
+        WARMUP,
+        ROUNDS,
+        || tenth.iteration(),
+        || all.iteration(),
+    );
+    eprintln!(
+        "replication_10k paired, {ROUNDS} alternating rounds after {WARMUP} warm-up: \
+         1 entity in 10 modelled median {:.3} ms, all modelled median {:.3} ms, ratio {:.2}",
+        tenth * 1e3,
+        all * 1e3,
+        tenth / all
     );
 }
 

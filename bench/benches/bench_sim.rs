@@ -1,5 +1,5 @@
 //! One cluster's world: the entity-keyed `ClusterSim` tick against the same scene written on raw
-//! Rapier, and `ReplicationFrame` encoding and decoding.
+//! Rapier, and `ReplicationFrame` encoding and reading in place, exact and quantized.
 //!
 //! `cargo bench -p seam-bench --bench bench_sim`.
 //!
@@ -16,7 +16,10 @@ use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use rapier3d::prelude::*;
-use seam_sim::wire::{self, BodySpec, ClusterId, EntityId, EntityState, ReplicationFrame, Shape};
+use seam_sim::wire::{
+    BodySpec, ClusterId, EntityId, EntityState, ReplicationEncoder, ReplicationFrame,
+    ReplicationView, Shape, StateEncoding,
+};
 use seam_sim::{BodyRole, ClusterSim, SimConfig};
 
 const BODIES: usize = 10_000;
@@ -230,26 +233,33 @@ fn replication_frame(c: &mut Criterion) {
         tick: 1,
         states: (0..BODIES).map(state).collect(),
     };
-    let bytes = wire::encode(&frame);
-    eprintln!(
-        "replication frame of {BODIES} states: {} bytes, {:.1} bytes per state",
-        bytes.len(),
-        bytes.len() as f64 / BODIES as f64
-    );
-    let mut buffer = vec![0u8; bytes.len()];
     let mut group = c.benchmark_group("replication_frame_10k");
-    group.bench_function("encode", |b| {
-        b.iter(|| wire::encode_into(&frame, &mut buffer).expect("fits"))
-    });
-    group.bench_function("decode", |b| {
-        b.iter(|| wire::decode::<ReplicationFrame>(&bytes).expect("valid"))
-    });
-    group.bench_function("encode_and_decode", |b| {
-        b.iter(|| {
-            let n = wire::encode_into(&frame, &mut buffer).expect("fits");
-            wire::decode::<ReplicationFrame>(&buffer[..n]).expect("valid")
-        })
-    });
+    for (name, encoding) in [
+        ("exact", StateEncoding::Exact),
+        ("quantized", StateEncoding::Quantized),
+    ] {
+        let bytes = frame.encode(encoding).expect("encodes");
+        eprintln!(
+            "replication frame of {BODIES} states, {name}: {} bytes, {:.1} bytes per state",
+            bytes.len(),
+            bytes.len() as f64 / BODIES as f64
+        );
+        let mut encoder = ReplicationEncoder::default();
+        let mut buffer = vec![0u8; bytes.len()];
+        group.bench_function(format!("encode_{name}"), |b| {
+            b.iter(|| {
+                encoder.prepare(&frame, encoding).expect("encodes");
+                encoder.write(&frame, &mut buffer).expect("fits")
+            })
+        });
+        // What a receiver does per frame: check it, then read every record in place.
+        group.bench_function(format!("read_{name}"), |b| {
+            b.iter(|| {
+                let view = ReplicationView::parse(&bytes).expect("valid");
+                view.states().filter(Result::is_ok).count()
+            })
+        });
+    }
     group.finish();
 }
 

@@ -1,6 +1,6 @@
 //! What a cluster is told at start.
 
-use seam_sim::wire::{ClusterId, EntityState};
+use seam_sim::wire::{ClusterId, EntityState, StateEncoding};
 use seam_sim::{ClusterSim, SimError};
 
 use crate::authority::AuthorityMode;
@@ -129,6 +129,11 @@ pub struct ClusterConfig {
     /// (see `seam_sim::coupling`). `false`: proxies stay immovable (Fixed) or infinitely heavy
     /// (kinematic) whatever they meet. [`ProxyMode::Custom`] proxies are never coupled.
     pub coupling: bool,
+    /// How replication frames write motion: [`StateEncoding::Exact`] floats (the default), or
+    /// [`StateEncoding::Quantized`] (fixed-point positions to ±0.49 mm, smallest-three
+    /// rotations, half-float velocities; 55 bytes a state instead of 77). Receivers read
+    /// either, so clusters of one world may differ.
+    pub state_encoding: StateEncoding,
 }
 
 /// One cluster of the world, as every cluster is told it.
@@ -194,6 +199,7 @@ impl ClusterConfig {
             world: Vec::new(),
             authority: AuthorityMode::default(),
             coupling: true,
+            state_encoding: StateEncoding::Exact,
         }
     }
 }

@@ -47,6 +47,10 @@ pub enum ClusterError {
         /// Why not.
         reason: &'static str,
     },
+    /// A frame of this cluster's own could not be encoded (a replication frame naming more
+    /// than 255 owners or 65 535 distinct body specs).
+    #[error("cannot encode a frame: {0}")]
+    Encode(#[from] seam_sim::wire::WireError),
     /// A free-running schedule that cannot be kept (see `Schedule::new`).
     #[error("schedule: {0}")]
     Schedule(String),

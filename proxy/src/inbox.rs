@@ -8,19 +8,70 @@
 use std::collections::BTreeMap;
 use std::collections::btree_map::Entry;
 
-use seam_sim::wire::{ClusterId, PhysicsEventsFrame, ReplicationFrame};
+use seam_sim::wire::{
+    ClusterId, EntityId, EntityState, PhysicsEventsFrame, ReplicationView, WireError,
+};
+
+/// A replication frame as received: its bytes, whose header and sizes were checked when it
+/// arrived and whose states are read in place when it is used (no decode pass), and the
+/// hand-offs of older frames of its sender it replaced (free-running).
+#[derive(Debug, Clone)]
+pub(crate) struct HeldReplication {
+    pub(crate) from: ClusterId,
+    pub(crate) tick: u64,
+    bytes: Vec<u8>,
+    carried: Vec<EntityState>,
+}
+
+impl HeldReplication {
+    /// Checks untrusted `bytes` and keeps a copy of them.
+    pub(crate) fn new(bytes: &[u8]) -> Result<Self, WireError> {
+        let view = ReplicationView::parse(bytes)?;
+        Ok(Self {
+            from: view.from(),
+            tick: view.tick(),
+            bytes: bytes.to_vec(),
+            carried: Vec::new(),
+        })
+    }
+
+    /// The frame as records, read in place.
+    pub(crate) fn view(&self) -> Option<ReplicationView<'_>> {
+        // Checked in `new`; the bytes have not changed since.
+        ReplicationView::parse(&self.bytes).ok()
+    }
+
+    /// Every state the frame holds, then the hand-offs it carries; a record that does not
+    /// read is an error in its place.
+    pub(crate) fn states(&self) -> impl Iterator<Item = Result<EntityState, WireError>> + '_ {
+        let view = self.view();
+        let listed = view.map_or(0, |v| v.len());
+        (0..listed)
+            .filter_map(move |i| view.map(|v| v.state(i)))
+            .chain(self.carried.iter().copied().map(Ok))
+    }
+
+    /// The entities the frame mentions, carried hand-offs included.
+    pub(crate) fn ids(&self) -> impl Iterator<Item = EntityId> + '_ {
+        let view = self.view();
+        let listed = view.map_or(0, |v| v.len());
+        (0..listed)
+            .filter_map(move |i| view.and_then(|v| v.id(i)))
+            .chain(self.carried.iter().map(|s| s.id))
+    }
+}
 
 /// Frames waiting to be used.
 #[derive(Default)]
 pub(crate) struct Inbox {
-    replication: BTreeMap<(u64, ClusterId), ReplicationFrame>,
+    replication: BTreeMap<(u64, ClusterId), HeldReplication>,
     /// With the host monotonic time it was received at.
     events: BTreeMap<(u64, ClusterId), (PhysicsEventsFrame, u64)>,
 }
 
 /// The frames one tick uses, in neighbour order.
 pub(crate) struct TickFrames {
-    pub(crate) replication: Vec<ReplicationFrame>,
+    pub(crate) replication: Vec<HeldReplication>,
     /// With the time each was received at.
     pub(crate) events: Vec<(PhysicsEventsFrame, u64)>,
 }
@@ -29,7 +80,7 @@ impl Inbox {
     /// Keeps a replication frame, unless one of the same tick and sender is already kept (a
     /// sender publishes one per tick: a second is a replay or a forgery, and the first stays).
     /// Returns whether it was kept.
-    pub(crate) fn add_replication(&mut self, frame: ReplicationFrame) -> bool {
+    pub(crate) fn add_replication(&mut self, frame: HeldReplication) -> bool {
         match self.replication.entry((frame.tick, frame.from)) {
             Entry::Vacant(slot) => {
                 slot.insert(frame);
@@ -44,7 +95,7 @@ impl Inbox {
     /// However long a backlog (a pod resuming after a stall reads everything Redis kept for
     /// it), the inbox holds one replication frame per sender. Returns whether it was kept (a
     /// frame of a tick already kept is not).
-    pub(crate) fn add_replication_newest(&mut self, frame: ReplicationFrame) -> bool {
+    pub(crate) fn add_replication_newest(&mut self, frame: HeldReplication) -> bool {
         if self.replication.contains_key(&(frame.tick, frame.from)) {
             return false;
         }
@@ -120,7 +171,7 @@ impl Inbox {
     /// the newest (the old owner stops listing an entity right after handing it over, so
     /// skipping that frame would lose the entity).
     pub(crate) fn take_all(&mut self) -> TickFrames {
-        let mut newest: BTreeMap<ClusterId, ReplicationFrame> = BTreeMap::new();
+        let mut newest: BTreeMap<ClusterId, HeldReplication> = BTreeMap::new();
         // Keys sort by tick first, so each sender's frames come oldest first.
         for ((_, from), frame) in std::mem::take(&mut self.replication) {
             let Some(older) = newest.insert(from, frame) else {
@@ -139,20 +190,38 @@ impl Inbox {
 
 /// Moves the hand-offs of `older` that `newer` does not list into `newer`: the old owner stops
 /// listing an entity once it has handed it over, so dropping that frame would lose the entity.
-fn carry_handoffs(older: ReplicationFrame, newer: &mut ReplicationFrame) {
-    for state in older.states {
-        let handed = state.cluster_id != older.from;
-        if handed && !newer.states.iter().any(|s| s.id == state.id) {
-            newer.states.push(state);
+fn carry_handoffs(older: HeldReplication, newer: &mut HeldReplication) {
+    let mut handoffs: Vec<EntityState> = Vec::new();
+    if let Some(view) = older.view() {
+        handoffs.extend(
+            (0..view.len())
+                .filter(|&i| view.hands_off(i))
+                .filter_map(|i| view.state(i).ok()),
+        );
+    }
+    handoffs.extend(older.carried);
+    for state in handoffs {
+        if !newer.ids().any(|id| id == state.id) {
+            newer.carried.push(state);
         }
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use seam_sim::wire::{BodySpec, EntityId, EntityState, Shape};
+    use seam_sim::wire::{BodySpec, ReplicationFrame, Shape, StateEncoding};
 
     use super::*;
+
+    fn held(from: ClusterId, tick: u64, states: Vec<EntityState>) -> HeldReplication {
+        let frame = ReplicationFrame { from, tick, states };
+        let bytes = frame.encode(StateEncoding::Exact).expect("encodes");
+        HeldReplication::new(&bytes).expect("decodes")
+    }
+
+    fn states(frame: &HeldReplication) -> Vec<EntityState> {
+        frame.states().map(|s| s.expect("reads")).collect()
+    }
 
     fn state(id: EntityId, owner: ClusterId, x: f32) -> EntityState {
         let body = BodySpec::new(Shape::ball(0.5)).density(1.0);
@@ -164,33 +233,26 @@ mod tests {
         let (a, b) = (ClusterId::random(), ClusterId::random());
         let (kept, handed) = (EntityId::random(), EntityId::random());
         let mut inbox = Inbox::default();
-        assert!(inbox.add_replication_newest(ReplicationFrame {
-            from: a,
-            tick: 7,
-            states: vec![state(kept, a, 1.0), state(handed, b, 2.0)],
-        }));
+        assert!(inbox.add_replication_newest(held(
+            a,
+            7,
+            vec![state(kept, a, 1.0), state(handed, b, 2.0)]
+        )));
         for tick in 8..100 {
-            assert!(inbox.add_replication_newest(ReplicationFrame {
-                from: a,
-                tick,
-                states: vec![state(kept, a, tick as f32)],
-            }));
+            assert!(inbox.add_replication_newest(held(a, tick, vec![state(kept, a, tick as f32)])));
             assert_eq!(
                 inbox.replication.len(),
                 1,
                 "one frame held, however long the backlog"
             );
         }
-        assert!(!inbox.add_replication_newest(ReplicationFrame {
-            from: a,
-            tick: 99,
-            states: Vec::new(),
-        }));
+        assert!(!inbox.add_replication_newest(held(a, 99, Vec::new())));
         let frames = inbox.take_all();
         let newest = &frames.replication[0];
         assert_eq!(newest.tick, 99);
-        assert_eq!(newest.states[0].position[0], 99.0);
-        assert_eq!(newest.states[1].id, handed, "the hand-off rode along");
+        let newest = states(newest);
+        assert_eq!(newest[0].position[0], 99.0);
+        assert_eq!(newest[1].id, handed, "the hand-off rode along");
     }
 
     #[test]
@@ -198,23 +260,16 @@ mod tests {
         let (a, b) = (ClusterId::random(), ClusterId::random());
         let (kept, handed) = (EntityId::random(), EntityId::random());
         let mut inbox = Inbox::default();
-        inbox.add_replication(ReplicationFrame {
-            from: a,
-            tick: 7,
-            states: vec![state(kept, a, 1.0), state(handed, b, 2.0)],
-        });
-        inbox.add_replication(ReplicationFrame {
-            from: a,
-            tick: 8,
-            states: vec![state(kept, a, 1.5)],
-        });
+        inbox.add_replication(held(a, 7, vec![state(kept, a, 1.0), state(handed, b, 2.0)]));
+        inbox.add_replication(held(a, 8, vec![state(kept, a, 1.5)]));
         let frames = inbox.take_all();
         assert_eq!(frames.replication.len(), 1);
         let newest = &frames.replication[0];
         assert_eq!(newest.tick, 8);
-        assert_eq!(newest.states.len(), 2);
-        assert_eq!(newest.states[0].position[0], 1.5, "the newest pose wins");
-        assert_eq!(newest.states[1].id, handed);
-        assert_eq!(newest.states[1].cluster_id, b);
+        let newest = states(newest);
+        assert_eq!(newest.len(), 2);
+        assert_eq!(newest[0].position[0], 1.5, "the newest pose wins");
+        assert_eq!(newest[1].id, handed);
+        assert_eq!(newest[1].cluster_id, b);
     }
 }

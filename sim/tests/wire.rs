@@ -2,14 +2,21 @@
 
 use seam_sim::wire::{
     self, BodySpec, ClusterId, ContactReport, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp,
-    ReplicationFrame, RoutedOp, SeamImpulseReport, Shape, WIRE_VERSION, WireError,
+    ReplicationFrame, ReplicationView, RoutedOp, SeamImpulseReport, Shape, StateEncoding,
+    WIRE_VERSION, WireError,
 };
+
+const ENCODINGS: [StateEncoding; 2] = [StateEncoding::Exact, StateEncoding::Quantized];
+
+fn encode(frame: &ReplicationFrame) -> Vec<u8> {
+    frame.encode(StateEncoding::Exact).expect("encodes")
+}
 
 fn state(i: u32) -> EntityState {
     EntityState {
         id: EntityId::from_u128(i as u128 + 1),
         cluster_id: ClusterId::from_u128(7),
-        tick: 42 + i as u64,
+        tick: 42 - u64::from(i),
         epoch: 0,
         position: [i as f32, 1.5, -2.0],
         rotation: [0.0, 0.0, 0.0, 1.0],
@@ -105,10 +112,10 @@ fn events() -> PhysicsEventsFrame {
 #[test]
 fn frames_round_trip() {
     let frame = replication();
-    let bytes = wire::encode(&frame);
+    let bytes = encode(&frame);
     assert_eq!(bytes[0], WIRE_VERSION);
-    assert_eq!(bytes.len(), wire::encoded_len(&frame));
-    assert_eq!(wire::decode::<ReplicationFrame>(&bytes), Ok(frame));
+    assert_eq!(Ok(bytes.len()), frame.encoded_len(StateEncoding::Exact));
+    assert_eq!(ReplicationFrame::decode(&bytes), Ok(frame));
 
     let frame = events();
     let bytes = wire::encode(&frame);
@@ -116,51 +123,145 @@ fn frames_round_trip() {
 }
 
 #[test]
+fn quantized_states_come_back_within_their_resolution() {
+    let mut frame = replication();
+    for (i, state) in frame.states.iter_mut().enumerate() {
+        let angle = i as f32 * 0.37;
+        state.rotation = [0.0, (angle / 2.0).sin(), 0.0, (angle / 2.0).cos()];
+        state.position = [i as f32 * 13.3791, -0.000_37, 4_321.123_4];
+    }
+    let bytes = frame.encode(StateEncoding::Quantized).expect("encodes");
+    let back = ReplicationFrame::decode(&bytes).expect("decodes");
+    assert_eq!((back.from, back.tick), (frame.from, frame.tick));
+    for (sent, got) in frame.states.iter().zip(&back.states) {
+        assert_eq!(
+            (got.id, got.cluster_id, got.tick, got.epoch, got.body),
+            (sent.id, sent.cluster_id, sent.tick, sent.epoch, sent.body)
+        );
+        for k in 0..3 {
+            assert!(
+                (got.position[k] - sent.position[k]).abs() <= 0.000_5,
+                "{got:?}"
+            );
+            let v = sent.linvel[k];
+            assert!((got.linvel[k] - v).abs() <= v.abs() / 2048.0, "{got:?}");
+        }
+        // Rotation angle from the quaternions' difference (an f32 arc cosine of their dot
+        // product is too coarse to judge 2e-4 rad); the largest component is sent positive.
+        let dot: f32 = got
+            .rotation
+            .iter()
+            .zip(&sent.rotation)
+            .map(|(a, b)| a * b)
+            .sum();
+        let sign = dot.signum();
+        let d: f32 = got
+            .rotation
+            .iter()
+            .zip(&sent.rotation)
+            .map(|(a, b)| (a - sign * b).powi(2))
+            .sum();
+        assert!(4.0 * (d.sqrt() / 2.0).asin() < 2e-4, "{got:?}");
+    }
+}
+
+#[test]
+fn a_state_costs_its_record_and_the_tables_are_shared() {
+    let frame = replication();
+    // 20 states of one owner and six specs (three shapes, each with and without CCD).
+    for (encoding, record) in [(StateEncoding::Exact, 77), (StateEncoding::Quantized, 55)] {
+        let len = frame.encoded_len(encoding).expect("encodes");
+        assert_eq!(len, 20 + 16 + 6 * 20 + 20 * record);
+        assert_eq!(encoding.record_len(), record);
+    }
+}
+
+#[test]
 fn encode_into_a_buffer_of_exactly_the_size() {
     let frame = replication();
-    let needed = wire::encoded_len(&frame);
-    let mut buffer = vec![0u8; needed];
-    assert_eq!(wire::encode_into(&frame, &mut buffer), Ok(needed));
-    assert_eq!(
-        wire::encode_into(&frame, &mut buffer[..needed - 1]),
-        Err(WireError::BufferTooSmall {
-            needed,
-            capacity: needed - 1
-        })
-    );
-    assert_eq!(
-        wire::encode_into(&frame, &mut []),
-        Err(WireError::BufferTooSmall {
-            needed,
-            capacity: 0
-        })
-    );
+    for encoding in ENCODINGS {
+        let needed = frame.encoded_len(encoding).expect("encodes");
+        let mut buffer = vec![0u8; needed];
+        assert_eq!(frame.encode_into(encoding, &mut buffer), Ok(needed));
+        assert_eq!(
+            frame.encode_into(encoding, &mut buffer[..needed - 1]),
+            Err(WireError::BufferTooSmall {
+                needed,
+                capacity: needed - 1
+            })
+        );
+        assert_eq!(
+            frame.encode_into(encoding, &mut []),
+            Err(WireError::BufferTooSmall {
+                needed,
+                capacity: 0
+            })
+        );
+    }
 }
 
 #[test]
 fn framing_errors_are_named() {
-    let mut bytes = wire::encode(&replication());
-    assert_eq!(wire::decode::<ReplicationFrame>(&[]), Err(WireError::Empty));
+    let mut bytes = encode(&replication());
+    assert_eq!(ReplicationFrame::decode(&[]), Err(WireError::Empty));
     bytes[0] = 99;
     assert_eq!(
-        wire::decode::<ReplicationFrame>(&bytes),
+        ReplicationFrame::decode(&bytes),
         Err(WireError::Version { found: 99 })
     );
-    let mut bytes = wire::encode(&replication());
+    let mut bytes = encode(&replication());
     bytes.extend_from_slice(&[1, 2, 3]);
     assert_eq!(
-        wire::decode::<ReplicationFrame>(&bytes),
+        ReplicationFrame::decode(&bytes),
         Err(WireError::TrailingBytes(3))
     );
 }
 
 #[test]
-fn every_truncation_is_an_error() {
-    for bytes in [wire::encode(&replication()), wire::encode(&events())] {
-        for cut in 0..bytes.len() {
-            assert!(wire::decode::<ReplicationFrame>(&bytes[..cut]).is_err());
-            assert!(wire::decode::<PhysicsEventsFrame>(&bytes[..cut]).is_err());
+fn a_bad_record_is_an_error_in_its_place_and_the_others_read() {
+    let frame = replication();
+    let mut bytes = encode(&frame);
+    // Header 20, one owner 16, six specs 120; record 5's owner index is at offset 22.
+    let record = |i: usize| 20 + 16 + 120 + i * 77;
+    bytes[record(5) + 22] = 9;
+    // Record 7's spec index points past the table.
+    bytes[record(7) + 23] = 200;
+    let view = ReplicationView::parse(&bytes).expect("the frame's shape is sound");
+    for i in 0..view.len() {
+        match i {
+            5 | 7 => assert!(view.state(i).is_err(), "record {i}"),
+            _ => assert_eq!(view.state(i), Ok(frame.states[i])),
         }
+    }
+    assert!(
+        ReplicationFrame::decode(&bytes).is_err(),
+        "decoding whole fails"
+    );
+}
+
+#[test]
+fn too_many_owners_is_an_error_not_a_panic() {
+    let mut frame = replication();
+    frame.states = (0..300u32)
+        .map(|i| EntityState {
+            cluster_id: ClusterId::from_u128(1000 + u128::from(i)),
+            ..state(0)
+        })
+        .collect();
+    assert!(frame.encode(StateEncoding::Exact).is_err());
+}
+
+#[test]
+fn every_truncation_is_an_error() {
+    for encoding in ENCODINGS {
+        let bytes = replication().encode(encoding).expect("encodes");
+        for cut in 0..bytes.len() {
+            assert!(ReplicationFrame::decode(&bytes[..cut]).is_err());
+        }
+    }
+    let bytes = wire::encode(&events());
+    for cut in 0..bytes.len() {
+        assert!(wire::decode::<PhysicsEventsFrame>(&bytes[..cut]).is_err());
     }
 }
 
@@ -185,7 +286,7 @@ fn random_bytes_never_panic() {
         if let Some(first) = bytes.first_mut() {
             *first = WIRE_VERSION; // get past the version check most of the time
         }
-        decoded += usize::from(wire::decode::<ReplicationFrame>(&bytes).is_ok());
+        decoded += usize::from(ReplicationFrame::decode(&bytes).is_ok());
         decoded += usize::from(wire::decode::<PhysicsEventsFrame>(&bytes).is_ok());
     }
     // Random bytes rarely make a frame; that they never panic is the point.
@@ -195,12 +296,22 @@ fn random_bytes_never_panic() {
 #[test]
 fn flipped_bits_never_panic() {
     // Every single-bit flip of both frame kinds, decoded as both kinds.
-    for bytes in [wire::encode(&events()), wire::encode(&replication())] {
+    let frames = [
+        wire::encode(&events()),
+        encode(&replication()),
+        replication()
+            .encode(StateEncoding::Quantized)
+            .expect("encodes"),
+    ];
+    for bytes in frames {
         for bit in 0..bytes.len() * 8 {
             let mut corrupted = bytes.clone();
             corrupted[bit / 8] ^= 1 << (bit % 8);
             let _ = wire::decode::<PhysicsEventsFrame>(&corrupted);
-            let _ = wire::decode::<ReplicationFrame>(&corrupted);
+            if let Ok(view) = ReplicationView::parse(&corrupted) {
+                // Every record reads or is an error; none panics.
+                let _ = view.states().count();
+            }
         }
     }
 }
@@ -208,11 +319,14 @@ fn flipped_bits_never_panic() {
 #[test]
 fn max_encoded_len_bounds_every_frame() {
     let mut frame = replication();
-    for state in &mut frame.states {
-        state.tick = u64::MAX;
+    // Every state of its own spec and owner: the largest tables a frame can have.
+    for (i, state) in frame.states.iter_mut().enumerate() {
+        state.body.density = 1.0 + i as f32;
+        state.cluster_id = ClusterId::from_u128(100 + i as u128);
     }
-    assert!(wire::encoded_len(&frame) <= frame.max_encoded_len());
+    for encoding in ENCODINGS {
+        assert!(frame.encoded_len(encoding).expect("encodes") <= frame.max_encoded_len());
+    }
     frame.states.clear();
-    frame.tick = u64::MAX;
-    assert!(wire::encoded_len(&frame) <= frame.max_encoded_len());
+    assert!(frame.encoded_len(StateEncoding::Exact).expect("encodes") <= frame.max_encoded_len());
 }

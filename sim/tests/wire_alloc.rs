@@ -1,9 +1,9 @@
-//! A forged list length cannot make decoding allocate more than the input justifies.
+//! A forged count or list length cannot make decoding allocate more than the input justifies.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use seam_sim::wire::{self, ReplicationFrame, WIRE_VERSION};
+use seam_sim::wire::{self, PhysicsEventsFrame, ReplicationFrame, WIRE_VERSION};
 
 struct Counting;
 
@@ -35,35 +35,36 @@ unsafe impl GlobalAlloc for Counting {
 static ALLOCATOR: Counting = Counting;
 
 #[test]
-fn forged_length_allocates_nothing_big() {
-    // version, `from` (16 bytes), tick 0, then a list length of u32::MAX and no elements.
-    let mut bytes = vec![WIRE_VERSION];
+fn forged_state_count_allocates_nothing_big() {
+    // A replication header claiming u32::MAX exact states, one owner, no specs, and nothing
+    // after the owner table.
+    let mut bytes = vec![WIRE_VERSION, 0, 1, 0, 0, 0, 0, 0];
+    bytes.extend_from_slice(&7u64.to_le_bytes());
+    bytes.extend_from_slice(&u32::MAX.to_le_bytes());
     bytes.extend_from_slice(&[0u8; 16]);
-    bytes.push(0);
-    bytes.extend_from_slice(&[0xFF, 0xFF, 0xFF, 0xFF, 0x0F]);
     let before = allocated();
-    let result = wire::decode::<ReplicationFrame>(&bytes);
+    let result = ReplicationFrame::decode(&bytes);
     let allocated = allocated() - before;
-    assert!(result.is_err(), "4 billion states from 23 bytes");
+    assert!(result.is_err(), "4 billion states from 36 bytes");
     // The error message itself allocates a little; a preallocated list would be gigabytes.
     assert!(
         allocated < 4096,
-        "decoding 23 bytes allocated {allocated} bytes"
+        "decoding 36 bytes allocated {allocated} bytes"
     );
 }
 
 #[test]
 fn plausible_length_allocates_in_proportion_to_what_decodes() {
-    // A length the input could back byte for byte (2000 states in ~2000 bytes), but each state
-    // takes ~90 bytes, so only ~20 decode before the input runs out. Preallocating the declared
-    // length would take 2000 × size_of::<EntityState>() ≈ 200 KB.
+    // An events frame whose op list claims 2000 ops, which the input could back byte for
+    // byte (~2000 bytes), but each op takes ~30 bytes, so only a few decode before the input
+    // runs out. Preallocating the declared length would take 2000 × size_of::<RoutedOp>().
     let mut bytes = vec![WIRE_VERSION];
     bytes.extend_from_slice(&[0u8; 16]);
-    bytes.push(0);
+    bytes.extend_from_slice(&[0, 0]); // tick 0, published_ns 0
     bytes.extend_from_slice(&[0xD0, 0x0F]); // 2000 as a varint
     bytes.extend(std::iter::repeat_n(0u8, 2000));
     let before = allocated();
-    let result = wire::decode::<ReplicationFrame>(&bytes);
+    let result = wire::decode::<PhysicsEventsFrame>(&bytes);
     let allocated = allocated() - before;
     assert!(result.is_err(), "the input runs out");
     assert!(

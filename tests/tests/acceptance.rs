@@ -414,7 +414,7 @@ fn transport_swap_identical() {
 /// A replication frame on A's channel that names B's entity as A's, or claims to hand it to A,
 /// is ignored: only an entity's current owner moves it.
 fn flip_only_from_the_owner(ctx: &TestContext) {
-    use seam_sim::wire::{self, ReplicationFrame};
+    use seam_sim::wire::{ReplicationFrame, StateEncoding};
     let mut clusters = pair(ctx, false, |_| {});
     let (a, b) = (clusters[0].id(), clusters[1].id());
     let entity = ball([5.0, 0.0, 0.0], [0.0; 3]);
@@ -436,7 +436,10 @@ fn flip_only_from_the_owner(ctx: &TestContext) {
         }],
     };
     forger
-        .publish(&seam_proxy::replication(a), &wire::encode(&forged))
+        .publish(
+            &seam_proxy::replication(a),
+            &forged.encode(StateEncoding::Exact).expect("encodes"),
+        )
         .expect("publish");
     rounds(&mut clusters, 2);
     let after = clusters[1].sim().info(entity.id).expect("still B's");

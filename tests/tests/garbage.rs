@@ -12,7 +12,7 @@ use seam_proxy::{Cluster, ClusterConfig, ClusterStats, physics_events, replicati
 use seam_sim::BodyRole;
 use seam_sim::wire::{
     self, ClusterId, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp, ReplicationFrame,
-    RoutedOp, Shape,
+    ReplicationView, RoutedOp, Shape, StateEncoding,
 };
 use seam_tests::{TestContext, ball_at};
 
@@ -79,8 +79,8 @@ impl Tally {
 
     /// Random bytes are refused as another version unless their first byte happens to be this
     /// one's; then as undecodable (were they ever a valid frame, the seed would need changing).
-    fn noise<T: serde::de::DeserializeOwned>(&mut self, bytes: &[u8]) {
-        match wire::decode::<T>(bytes) {
+    fn noise<T>(&mut self, decoded: Result<T, wire::WireError>) {
+        match decoded {
             Err(wire::WireError::Version { .. }) => self.wrong_version += 1,
             Err(_) => self.malformed += 1,
             Ok(_) => panic!("noise decoded as a frame: pick another seed"),
@@ -103,6 +103,11 @@ fn bad_state(noise: &mut Noise, owner: ClusterId) -> EntityState {
         _ => state.body.shape = Shape::Ball { radius: f32::NAN },
     }
     state
+}
+
+/// A replication frame as pods publish it by default.
+fn exact(frame: &ReplicationFrame) -> Vec<u8> {
+    frame.encode(StateEncoding::Exact).expect("encodes")
 }
 
 fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
@@ -174,9 +179,10 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
         for _ in 0..8 {
             tick_tag += 1;
             let kind = loop {
-                let kind = noise.next() % 11;
-                if !(states_sent && (kind == 5 || kind == 10)) {
-                    states_sent |= kind == 5 || kind == 10;
+                let kind = noise.next() % 12;
+                let with_states = matches!(kind, 5 | 10 | 11);
+                if !(states_sent && with_states) {
+                    states_sent |= with_states;
                     break kind;
                 }
             };
@@ -184,12 +190,13 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                 // Random bytes, on either channel.
                 0 => {
                     let bytes = noise.bytes(300);
-                    expected.noise::<PhysicsEventsFrame>(&bytes);
+                    expected.noise(wire::decode::<PhysicsEventsFrame>(&bytes));
                     (&events_channel, vec![bytes])
                 }
                 1 => {
                     let bytes = noise.bytes(300);
-                    expected.noise::<ReplicationFrame>(&bytes);
+                    // A cluster checks a replication frame's shape on arrival, its records in use.
+                    expected.noise(ReplicationView::parse(&bytes));
                     (&replication_channel, vec![bytes])
                 }
                 // Another format version.
@@ -255,7 +262,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                     };
                     expected.accepted += 1;
                     expected.states_rejected += 1;
-                    (&replication_channel, vec![wire::encode(&frame)])
+                    (&replication_channel, vec![exact(&frame)])
                 }
                 // A replication frame on the neighbour's channel naming another sender.
                 6 => {
@@ -265,7 +272,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                         states: Vec::new(),
                     };
                     expected.wrong_sender += 1;
-                    (&replication_channel, vec![wire::encode(&frame)])
+                    (&replication_channel, vec![exact(&frame)])
                 }
                 // An events frame from a cluster that is not a neighbour.
                 7 => {
@@ -303,8 +310,25 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                             tick: ahead,
                             states: Vec::new(),
                         };
-                        (&replication_channel, vec![wire::encode(&frame)])
+                        (&replication_channel, vec![exact(&frame)])
                     }
+                }
+                // Records that do not read: an owner or a body spec past the frame's tables.
+                11 => {
+                    let frame = ReplicationFrame {
+                        from: neighbour,
+                        tick: tick_tag,
+                        states: vec![ball_at(1.0, neighbour), ball_at(2.0, neighbour)],
+                    };
+                    let mut bytes = exact(&frame);
+                    // Header 20, one owner 16, one spec 20; in a record the owner index is
+                    // byte 22, the spec index bytes 23-24.
+                    let records = 20 + 16 + 20;
+                    bytes[records + 22] = 1 + (noise.next() % 200) as u8;
+                    bytes[records + 77 + 23] = 1 + (noise.next() % 200) as u8;
+                    expected.accepted += 1;
+                    expected.states_rejected += 2;
+                    (&replication_channel, vec![bytes])
                 }
                 // States no proxy may be made of.
                 _ => {
@@ -317,7 +341,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                         tick: tick_tag,
                         states,
                     };
-                    (&replication_channel, vec![wire::encode(&frame)])
+                    (&replication_channel, vec![exact(&frame)])
                 }
             };
             for payload in payloads {

@@ -31,6 +31,7 @@ fn plan(scene_name: &str, transport: String, rate: f64, ticks: u64) -> RunPlan {
         authority: AuthorityArgs::default(),
         replication_interval: 1,
         coupling: true,
+        quantize: false,
         layers: 1,
         run_id: run::fresh_run_id(),
         node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
@@ -44,11 +45,13 @@ fn run_pods(
     scene_name: &str,
     ticks: u64,
     authority: AuthorityArgs,
+    quantize: bool,
 ) -> RunReport {
     // Faster than real time, so the test takes seconds; the scene's events all fall within
     // `ticks`.
     let plan = RunPlan {
         authority,
+        quantize,
         ..plan(scene_name, ctx.url(), 300.0, ticks)
     };
     run::run(&plan, &AtomicBool::new(false), |_| {})
@@ -106,7 +109,7 @@ fn assert_crossfire_holds(report: &RunReport) -> String {
 /// The main job with default settings: authority follows entities, so west's projectile is
 /// handed to east as it crosses the seam and hits east's crates in east's own world.
 fn crossfire_pods_cross_the_seam(ctx: &TestContext) {
-    let report = run_pods(ctx, "crossfire", 360, AuthorityArgs::default());
+    let report = run_pods(ctx, "crossfire", 360, AuthorityArgs::default(), false);
     let text = assert_crossfire_holds(&report);
     let west = pod(&report, "west");
     assert!(
@@ -117,9 +120,10 @@ fn crossfire_pods_cross_the_seam(ctx: &TestContext) {
 
 /// With only the scene's hand-offs, west simulates its projectile all the way, so its strikes
 /// on east's crates are contacts with proxies, reported to east; and west hands the runner
-/// over at tick 300.
+/// over at tick 300. Its pods publish quantized states, which change none of that.
 fn crossfire_pods_scripted_report_contacts(ctx: &TestContext) {
-    let report = run_pods(ctx, "crossfire", 360, AuthorityArgs::scripted());
+    let report = run_pods(ctx, "crossfire", 360, AuthorityArgs::scripted(), true);
+    assert!(report.quantize);
     let text = assert_crossfire_holds(&report);
     let (west, east) = (pod(&report, "west"), pod(&report, "east"));
     assert!(

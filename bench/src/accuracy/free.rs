@@ -53,6 +53,7 @@ pub fn run_free_trial(
         authority: settings.authority,
         replication_interval: settings.replication_interval,
         coupling: settings.coupling,
+        quantize: settings.quantize,
         layers: 1,
         run_id: run_id.to_owned(),
         node_command: free.node_command.clone(),

@@ -16,6 +16,7 @@ mod free;
 use std::time::{Duration, Instant};
 
 use seam_proxy::ProxyMode;
+use seam_sim::wire::StateEncoding;
 use serde::Serialize;
 
 use crate::latency::LatencyRecorder;
@@ -40,6 +41,8 @@ pub struct TrialSettings {
     pub replication_interval: u64,
     /// Whether contacts push across the seam (see `seam_proxy::ClusterConfig::coupling`).
     pub coupling: bool,
+    /// Quantized replication states (see `seam_sim::wire::StateEncoding`).
+    pub quantize: bool,
     /// Observation spread of every cluster, m (`None`: the scene's); see `interest`.
     pub spread: Option<f32>,
     /// `false`: every cluster proxies every neighbour entity wherever it is (no interest
@@ -73,6 +76,7 @@ impl Default for TrialSettings {
             authority: AuthorityArgs::default(),
             replication_interval: 1,
             coupling: true,
+            quantize: false,
             spread: None,
             interest: true,
             projectile_speed: None,
@@ -187,6 +191,11 @@ pub fn run_trial(
         authority: settings.authority.mode(),
         replication_interval: settings.replication_interval,
         coupling: settings.coupling,
+        state_encoding: if settings.quantize {
+            StateEncoding::Quantized
+        } else {
+            StateEncoding::Exact
+        },
         ..PodSettings::new(transport, run_id)
     };
     let prefix = format!("seam_trial_{}_{run_id}_", std::process::id());
@@ -290,8 +299,8 @@ pub fn table(r: &TrialResult) -> String {
     let (s, a, c) = (&r.settings, &r.accuracy, &r.cost);
     format!(
         "seam compare: {} split ({}) against one world, {} ticks\n\
-         settings: {} proxies, contact coupling {}, {} authority, replication every {} tick(s), \
-         spread {}, projectiles {}, CCD {}\n\n\
+         settings: {} proxies, contact coupling {}, {} authority, replication every {} tick(s) \
+         ({} states), spread {}, projectiles {}, CCD {}\n\n\
          accuracy\n\
          \x20 position error       RMS {:.4} m, max {:.4} m (over {}){}\n\
          \x20 orientation error    RMS {:.3}°, max {:.3}°\n\
@@ -319,6 +328,7 @@ pub fn table(r: &TrialResult) -> String {
         if s.coupling { "on" } else { "off" },
         s.authority.label(),
         s.replication_interval,
+        if s.quantize { "quantized" } else { "exact" },
         if s.interest {
             s.spread
                 .map_or("as in the scene".to_owned(), |v| format!("{v} m"))
@@ -394,16 +404,18 @@ pub fn markdown(results: &[TrialResult]) -> String {
         ("CPU/tick summed ms", Right),
         ("one world ms", Right),
         ("kB/tick", Right),
+        ("B/state", Right),
     ]);
     for r in results {
         let (s, a, c) = (&r.settings, &r.accuracy, &r.cost);
         table.row(vec![
             format!("`{}`", r.scene),
-            if s.coupling {
-                mode_name(s.proxy_mode).to_owned()
-            } else {
-                format!("{}, uncoupled", mode_name(s.proxy_mode))
-            },
+            format!(
+                "{}{}{}",
+                mode_name(s.proxy_mode),
+                if s.coupling { "" } else { ", uncoupled" },
+                if s.quantize { ", quantized" } else { "" }
+            ),
             s.authority.label(),
             s.replication_interval.to_string(),
             if s.interest {
@@ -428,6 +440,7 @@ pub fn markdown(results: &[TrialResult]) -> String {
                 "{:.1}",
                 (c.replication_bytes_per_tick + c.events_bytes_per_tick) / 1e3
             ),
+            format!("{:.1}", c.bytes_per_state),
         ]);
     }
     table.render()

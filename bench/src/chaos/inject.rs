@@ -68,7 +68,7 @@ impl Injector {
     /// Takes the frames that arrived, keeping each cluster's latest.
     pub fn observe(&mut self) -> Result<(), String> {
         while let Some(message) = self.transport.try_receive().map_err(|e| e.to_string())? {
-            if let Ok(frame) = wire::decode::<ReplicationFrame>(message.payload)
+            if let Ok(frame) = ReplicationFrame::decode(message.payload)
                 && self
                     .latest
                     .get(&frame.from)
@@ -114,7 +114,7 @@ impl Injector {
             let channel = replication(cluster);
             let mut garbage = vec![self.random_bytes(), self.random_bytes()];
             if let Some(real) = self.latest.get(&cluster) {
-                let bytes = wire::encode(real);
+                let bytes = encode(real)?;
                 garbage.push(bytes[..bytes.len() / 2].to_vec());
                 let mut other_version = bytes;
                 other_version[0] = WIRE_VERSION.wrapping_add(1);
@@ -123,7 +123,7 @@ impl Injector {
             if other != cluster
                 && let Some(theirs) = self.latest.get(&other)
             {
-                garbage.push(wire::encode(theirs));
+                garbage.push(encode(theirs)?);
             }
             for payload in garbage {
                 self.counts.garbage_frames += 1;
@@ -148,11 +148,18 @@ impl Injector {
                     cluster_id: cluster,
                     ..stolen
                 });
-                let payload = wire::encode(&forged);
+                let payload = encode(&forged)?;
                 self.counts.forged_frames += 1;
                 self.counts.forged_deliveries += self.send(&channel, &payload, 1)?;
             }
         }
         Ok(())
     }
+}
+
+/// A frame as pods publish it by default.
+fn encode(frame: &ReplicationFrame) -> Result<Vec<u8>, String> {
+    frame
+        .encode(wire::StateEncoding::Exact)
+        .map_err(|e| e.to_string())
 }

@@ -163,6 +163,7 @@ pub fn run(
         authority: AuthorityArgs::default(),
         replication_interval: 1,
         coupling: true,
+        quantize: false,
         layers: plan.layers,
         run_id: run_id.clone(),
         node_command: plan.node_command.clone(),

@@ -25,7 +25,7 @@ use seam_proxy::{
     AuthorityMode, Cluster, ClusterConfig, ClusterError, ProxyMode, Region, WorldCluster, world_map,
 };
 use seam_sim::BodyRole;
-use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape};
+use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape, StateEncoding};
 
 use crate::scene::{self, Event, Scene, SceneShape};
 pub use events::{EventCounts, RoutedPush};
@@ -56,6 +56,8 @@ pub struct PodSettings {
     pub replication_interval: u64,
     /// Whether contacts push across the seam (see `ClusterConfig::coupling`).
     pub coupling: bool,
+    /// How replication frames write motion (see `ClusterConfig::state_encoding`).
+    pub state_encoding: StateEncoding,
     /// Ticks of silence after which a neighbour is taken for dead (0: never; see
     /// `ClusterConfig::neighbour_timeout_ticks`).
     pub neighbour_timeout_ticks: u64,
@@ -75,6 +77,7 @@ impl PodSettings {
             authority: AuthorityMode::spatial(),
             replication_interval: 1,
             coupling: true,
+            state_encoding: StateEncoding::Exact,
             neighbour_timeout_ticks: 60,
             rejoin: false,
         }
@@ -238,6 +241,7 @@ impl Pod {
         config.authority = settings.authority;
         config.replication_interval = settings.replication_interval.max(1);
         config.coupling = settings.coupling;
+        config.state_encoding = settings.state_encoding;
         config.dt = scene.dt;
         config.gravity = scene.gravity;
         config.max_linear_velocity = scene.max_speed;

@@ -47,6 +47,8 @@ pub struct RunPlan {
     pub replication_interval: u64,
     /// Whether contacts push across the seam (see `ClusterConfig::coupling`).
     pub coupling: bool,
+    /// Quantized replication states (see `ModelArgs::quantize`).
+    pub quantize: bool,
     /// Copies of every grid entity stacked along y.
     pub layers: u32,
     /// Shared by the pods of this run.
@@ -129,6 +131,9 @@ pub fn spawn_pod(
     }
     if !plan.coupling {
         command.arg("--no-coupling");
+    }
+    if plan.quantize {
+        command.arg("--quantize");
     }
     let mut child = command
         .spawn()

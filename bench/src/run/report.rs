@@ -78,6 +78,8 @@ pub struct RunReport {
     pub replication_interval: u64,
     /// Whether contacts pushed across the seam (see `ClusterConfig::coupling`).
     pub coupling: bool,
+    /// Whether replication states were quantized.
+    pub quantize: bool,
     /// Seconds from launch to the last pod's exit.
     pub wall_s: f64,
     /// One entry per pod.
@@ -136,6 +138,7 @@ impl RunReport {
             proxy_mode: plan.proxy_mode,
             replication_interval: plan.replication_interval,
             coupling: plan.coupling,
+            quantize: plan.quantize,
             wall_s,
             pods,
             totals,
@@ -155,13 +158,14 @@ pub fn table(report: &RunReport) -> String {
     };
     let mut out = format!(
         "seam run: {} ({} entities) on {}, {} pods, {ticks} ticks {rate}, {:?} proxies, \
-         replication every {} tick(s), coupling {}, {:.1} s\n\n",
+         replication every {} tick(s){}, coupling {}, {:.1} s\n\n",
         report.scene,
         report.entities,
         report.transport,
         report.pods.len(),
         report.proxy_mode,
         report.replication_interval,
+        if report.quantize { " quantized" } else { "" },
         if report.coupling { "on" } else { "off" },
         report.wall_s
     );

@@ -3,7 +3,9 @@
 //! Every point of the grid is one [`run_trial`] (a split run in lock-step against its
 //! single-world reference, in this process) on each scene: proxy mode × replication interval ×
 //! projectile speed × projectile CCD × observation spread (the last value, `everything`, turns
-//! interest management off: every cluster proxies every neighbour entity). The transport axis
+//! interest management off: every cluster proxies every neighbour entity). The quantization
+//! axis runs each proxy mode and interval exact and quantized at the scene's own projectiles
+//! and spread, side by side. The transport axis
 //! runs the scene as free-running pods (`seam run`) on each transport asked for, per proxy mode
 //! at the shortest and longest interval ([`run_free_trial`]). Results go to `sweep.csv`, one
 //! row per trial with every metric, and to charts (`charts`).
@@ -34,6 +36,10 @@ pub struct SweepGrid {
     pub ccd: Vec<bool>,
     /// Observation spreads, m; `None` is "everything" (no interest management).
     pub spreads: Vec<Option<f32>>,
+    /// State encodings: `false` exact, `true` quantized. With `true` among them, each proxy
+    /// mode and interval also runs once per encoding at the scene's own projectiles and spread;
+    /// every other trial is exact.
+    pub quantize: Vec<bool>,
     /// Transports for free-running pods (the transport axis), each run per proxy mode at the
     /// shortest and longest interval with the scene's own projectiles and spread.
     pub transports: Vec<String>,
@@ -48,6 +54,7 @@ impl SweepGrid {
             speeds: vec![10.0, 50.0, 200.0, 500.0, 1000.0, 2000.0],
             ccd: vec![false, true],
             spreads: vec![Some(1.0), Some(3.0), Some(10.0), None],
+            quantize: vec![false, true],
             transports: Vec::new(),
         }
     }
@@ -60,6 +67,7 @@ impl SweepGrid {
             speeds: vec![50.0, 500.0, 2000.0],
             ccd: vec![false, true],
             spreads: vec![Some(3.0), None],
+            quantize: vec![false, true],
             transports: Vec::new(),
         }
     }
@@ -84,6 +92,19 @@ impl SweepGrid {
         let mut all = Vec::new();
         for &proxy_mode in &self.proxy_modes {
             for &replication_interval in &self.intervals {
+                // The quantization axis: exact and quantized at the scene's own projectiles
+                // and spread, side by side.
+                if self.quantize.contains(&true) {
+                    for &quantize in &self.quantize {
+                        all.push(TrialSettings {
+                            proxy_mode,
+                            replication_interval,
+                            quantize,
+                            ticks,
+                            ..TrialSettings::default()
+                        });
+                    }
+                }
                 for &spread in &self.spreads {
                     for &projectile_ccd in &ccd {
                         for &projectile_speed in &speeds {
@@ -122,9 +143,10 @@ pub fn describe(settings: &TrialSettings) -> String {
         None => "as in the scene",
     };
     format!(
-        "{} every {} tick(s), spread {spread}, {speed}, CCD {ccd}",
+        "{} every {} tick(s){}, spread {spread}, {speed}, CCD {ccd}",
         mode_name(settings.proxy_mode),
         settings.replication_interval,
+        if settings.quantize { " quantized" } else { "" },
     )
 }
 

@@ -101,7 +101,11 @@ impl Cluster {
     /// bring it back).
     pub(super) fn adopt_from(&mut self, dead: ClusterId) {
         let me = self.config.cluster_id;
-        let last = self.last_states.swap_remove(&dead).unwrap_or_default();
+        let last: Vec<EntityState> = self
+            .last_states
+            .swap_remove(&dead)
+            .map(|frame| frame.states().filter_map(Result::ok).collect())
+            .unwrap_or_default();
         let liveness = &self.liveness;
         let alive = |c: ClusterId| {
             c == me

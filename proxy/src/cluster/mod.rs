@@ -3,8 +3,8 @@
 use std::time::{Duration, Instant};
 
 use seam_sim::wire::{
-    self, ClusterId, ContactReport, EntityId, EntityState, IdMap, ReplicationFrame, RoutedOp,
-    SeamImpulseReport,
+    self, ClusterId, ContactReport, EntityId, EntityState, IdMap, ReplicationEncoder,
+    ReplicationFrame, RoutedOp, SeamImpulseReport,
 };
 use seam_sim::{BodyRole, ClusterSim, ContactEvent, PhysicsHandle, SimConfig, TickContext};
 use seam_transport::Transport;
@@ -15,7 +15,7 @@ use crate::clock::{OpTiming, monotonic_ns};
 use crate::config::{ClusterConfig, CustomProxy, ProxyMode, Region};
 use crate::contact_merge::ContactMerge;
 use crate::error::ClusterError;
-use crate::inbox::{Inbox, TickFrames};
+use crate::inbox::{HeldReplication, Inbox, TickFrames};
 use crate::interest::Interest;
 use crate::prediction::Predictions;
 use crate::settle::Settlement;
@@ -74,12 +74,14 @@ pub struct Cluster {
     released: IdMap<EntityId, (u32, u64)>,
     custom_proxy: Option<Box<dyn CustomProxy>>,
     replication_channel: String,
+    /// Tables reused by every replication frame this cluster encodes.
+    encoder: ReplicationEncoder,
     stats: ClusterStats,
     /// What this cluster knows of each neighbour's liveness.
     liveness: IdMap<ClusterId, Peer>,
     /// The states of each neighbour's last replication frame (kept only with a world map): what
     /// its entities are adopted from if it dies.
-    last_states: IdMap<ClusterId, Vec<EntityState>>,
+    last_states: IdMap<ClusterId, HeldReplication>,
     /// Entities this cluster adopted (or took back from a neighbour that died before taking
     /// them), with the cluster they came from: if it returns and still claims one, it gets it
     /// back.
@@ -143,6 +145,7 @@ impl Cluster {
         );
         Ok(Self {
             replication_channel: channels::replication(config.cluster_id),
+            encoder: ReplicationEncoder::default(),
             interest: Interest::new(config.region, config.spread),
             config,
             sim,
@@ -418,7 +421,7 @@ impl Cluster {
         for frame in frames.replication {
             self.reconcile(&frame);
             if keep_last {
-                self.last_states.insert(frame.from, frame.states);
+                self.last_states.insert(frame.from, frame);
             }
         }
         // Each contact once per side (see `crate::contact_merge`): this world's own events,

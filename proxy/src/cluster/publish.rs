@@ -2,7 +2,7 @@
 //! physics-events frame per neighbour with its routed ops, contacts and impulses.
 
 use seam_sim::BodyRole;
-use seam_sim::wire::{self, EntityState, PhysicsEventsFrame, ReplicationFrame};
+use seam_sim::wire::{self, EntityState, PhysicsEventsFrame, ReplicationEncoder, ReplicationFrame};
 use seam_transport::Transport;
 
 use crate::authority::{AuthorityView, NeighbourView};
@@ -22,6 +22,22 @@ pub(super) fn publish_frame<T: serde::Serialize>(
     let len = wire::encoded_len(frame);
     transport.publish_with(channel, len, &mut |buffer| {
         wire::encode_into(frame, buffer).ok()
+    })?;
+    Ok(len)
+}
+
+/// Encodes a replication frame straight into the transport's buffer, its records written in
+/// place; returns the encoded length.
+pub(super) fn publish_replication(
+    transport: &mut dyn Transport,
+    channel: &str,
+    encoder: &mut ReplicationEncoder,
+    frame: &ReplicationFrame,
+    encoding: wire::StateEncoding,
+) -> Result<usize, ClusterError> {
+    let len = encoder.prepare(frame, encoding)?;
+    transport.publish_with(channel, len, &mut |buffer| {
+        encoder.write(frame, buffer).ok()
     })?;
     Ok(len)
 }
@@ -121,8 +137,13 @@ impl Cluster {
                 states,
             };
             self.stats.states_replicated += frame.states.len() as u64;
-            self.stats.replication_bytes +=
-                publish_frame(self.transport.as_mut(), &self.replication_channel, &frame)? as u64;
+            self.stats.replication_bytes += publish_replication(
+                self.transport.as_mut(),
+                &self.replication_channel,
+                &mut self.encoder,
+                &frame,
+                self.config.state_encoding,
+            )? as u64;
             let role = self.proxy_role();
             self.transfers.clear();
             for handed in handing {

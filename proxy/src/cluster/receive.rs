@@ -1,16 +1,17 @@
 //! Taking frames in: decoding them from the received bytes and filing them in the inbox, with
 //! replays, implausible ticks and malformed bytes counted and dropped.
 
-use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame, ReplicationFrame};
+use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame};
 
 use crate::channels::{self, Channel};
 use crate::clock::monotonic_ns;
 use crate::error::ClusterError;
+use crate::inbox::HeldReplication;
 
 use super::Cluster;
 
 pub(super) enum Frame {
-    Replication(ReplicationFrame),
+    Replication(HeldReplication),
     Events(PhysicsEventsFrame),
 }
 
@@ -56,7 +57,8 @@ pub(super) fn rejected(error: wire::WireError) -> Rejected {
 pub(super) fn decode_frame(channel: &str, payload: &[u8]) -> Result<Frame, Rejected> {
     match channels::parse(channel).ok_or(Rejected::WrongSender)? {
         Channel::Replication(from) => {
-            let frame = wire::decode::<ReplicationFrame>(payload).map_err(rejected)?;
+            // Checked in place; its states are read when the tick uses it.
+            let frame = HeldReplication::new(payload).map_err(rejected)?;
             if frame.from != from {
                 return Err(Rejected::WrongSender);
             }

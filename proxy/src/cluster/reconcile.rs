@@ -2,10 +2,11 @@
 //! spawned, moved and despawned.
 
 use seam_sim::BodyRole;
-use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap, ReplicationFrame};
+use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap};
 
 use crate::config::ProxyMode;
 use crate::dead_reckoning;
+use crate::inbox::HeldReplication;
 use crate::interest::extent;
 
 use super::{Cluster, within};
@@ -40,16 +41,22 @@ impl Cluster {
     }
 
     /// Brings the world in line with one neighbour's replication frame.
-    pub(super) fn reconcile(&mut self, frame: &ReplicationFrame) {
+    pub(super) fn reconcile(&mut self, frame: &HeldReplication) {
         let (me, from) = (self.config.cluster_id, frame.from);
         let mut listed: IdMap<EntityId, ()> = IdMap::default();
         // A hand-off this cluster made to `from` is answered once `from` mentions the entity.
         if self.handed.values().any(|handed| handed.cluster_id == from) {
-            let mentioned: IdMap<EntityId, ()> = frame.states.iter().map(|s| (s.id, ())).collect();
+            let mentioned: IdMap<EntityId, ()> = frame.ids().map(|id| (id, ())).collect();
             self.handed
                 .retain(|id, handed| handed.cluster_id != from || !mentioned.contains_key(id));
         }
-        for state in &frame.states {
+        for state in frame.states() {
+            let Ok(state) = state else {
+                // A record that does not read (an index out of its table, a bad rotation).
+                self.stats.states_rejected += 1;
+                continue;
+            };
+            let state = &state;
             let limit = self.config.max_magnitude;
             let absurd = ![state.position, state.linvel, state.angvel]
                 .into_iter()

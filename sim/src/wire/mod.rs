@@ -1,20 +1,27 @@
-//! The wire: what clusters send each other, postcard-encoded behind a format version byte.
+//! The wire: what clusters send each other, each frame behind a format version byte.
 //!
-//! Every frame is `[WIRE_VERSION][postcard body]`. Decoding takes untrusted bytes: it returns a
-//! [`WireError`] rather than panicking, rejects trailing bytes, and grows lists only as elements
-//! actually decode, so a forged length cannot make it allocate more than the input justifies.
+//! Replication frames, a tick's worth of entity states, are fixed-layout records a receiver
+//! validates and reads in place ([`ReplicationView`], laid out in `replication.rs`); events
+//! frames (routed ops, contacts, impulses) are postcard. Decoding takes untrusted bytes: it
+//! returns a [`WireError`] rather than panicking, rejects trailing bytes, and grows lists only as
+//! elements actually decode, so a forged length cannot make it allocate more than the input
+//! justifies.
 
 mod build;
 mod ids;
-mod state_codec;
+mod replication;
 
 pub use ids::{ClusterId, EntityId, IdHasher, IdMap};
+pub use replication::{
+    MAX_QUANTIZED_VELOCITY, MAX_STATE_LEN, POSITION_STEPS_PER_METRE, ReplicationEncoder,
+    ReplicationView, StateEncoding,
+};
 
 use serde::de::{DeserializeOwned, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
 
 /// The format version every frame starts with.
-pub const WIRE_VERSION: u8 = 3;
+pub const WIRE_VERSION: u8 = 4;
 
 /// A collision shape, as small as a proxy needs.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -56,8 +63,8 @@ pub struct BodySpec {
     pub simulated: bool,
 }
 
-/// One entity's replicated state: the spine every neighbour receives. Its wire form is in
-/// `state_codec`.
+/// One entity's replicated state: the spine every neighbour receives. Its wire form is a
+/// fixed-layout record (see [`ReplicationView`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EntityState {
     /// The entity.
@@ -257,8 +264,9 @@ pub struct SeamImpulseReport {
     pub tick: u64,
 }
 
-/// What one cluster publishes on `replication:<cluster_id>` each tick.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// What one cluster publishes on `replication:<cluster_id>` each tick. Its wire form is
+/// fixed-layout records read in place (see [`ReplicationView`]), not postcard.
+#[derive(Debug, Clone, PartialEq)]
 pub struct ReplicationFrame {
     /// The publishing cluster.
     pub from: ClusterId,
@@ -266,7 +274,6 @@ pub struct ReplicationFrame {
     pub tick: u64,
     /// The states of the entities it owns (and, in the tick of a hand-off, the entity it gives
     /// away, already naming its new authority).
-    #[serde(deserialize_with = "grow_as_decoded")]
     pub states: Vec<EntityState>,
 }
 
@@ -342,20 +349,6 @@ where
         }
     }
     deserializer.deserialize_seq(Grow(std::marker::PhantomData))
-}
-
-/// Most bytes one [`EntityState`] can take: the 84-byte block with its length byte, a 10-byte
-/// varint tick, a 5-byte varint epoch, the largest shape (tag and three floats), density, and
-/// the CCD and simulated flags.
-pub const MAX_STATE_LEN: usize = 1 + 84 + 10 + 5 + 1 + 12 + 4 + 1 + 1;
-
-impl ReplicationFrame {
-    /// An upper bound of the encoded size, without encoding: size a transport buffer with it
-    /// and publish only what [`encode_into`] writes.
-    pub fn max_encoded_len(&self) -> usize {
-        // Version, `from`, tick and list length (varints of at most 10 bytes), then the states.
-        1 + 16 + 10 + 10 + self.states.len() * MAX_STATE_LEN
-    }
 }
 
 /// Encoded size of `frame` in bytes, version byte included.

@@ -291,6 +291,7 @@ impl Knobs {
             authority: self.model.authority,
             replication_interval: self.model.replication_interval.max(1),
             coupling: !self.model.no_coupling,
+            quantize: self.model.quantize,
             spread: self.spread,
             interest: !self.everything,
             projectile_speed: self.speed,

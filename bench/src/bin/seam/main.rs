@@ -37,6 +37,7 @@ fn main() -> ExitCode {
             authority: model.authority,
             replication_interval: model.replication_interval,
             coupling: !model.no_coupling,
+            quantize: model.quantize,
             layers,
             run_id: run::fresh_run_id(),
             node_command: Vec::new(),
