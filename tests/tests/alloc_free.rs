@@ -3,13 +3,18 @@
 //! A counting global allocator counts this thread's allocations while a flag is up. After a
 //! warm-up (the first publish on a channel creates its ports), receiving must allocate nothing,
 //! and publishing must allocate exactly what plain iceoryx2 allocates for the same number of
-//! loans, measured in the same run. iceoryx2 0.10 allocates one small shared-state object per
+//! loans, measured in the same run — replication frames included, encoded by a reused
+//! `ReplicationEncoder` into the loan and read in place on the other side. iceoryx2 0.10 allocates one small shared-state object per
 //! loaned sample (`ChunkMutSharedState::new`); should a later iceoryx2 stop doing so, the
 //! baseline drops to zero and so must seam. The in-process backend is held to the same rule.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
+use seam_sim::wire::{
+    BodySpec, ClusterId, EntityId, EntityState, ReplicationEncoder, ReplicationFrame,
+    ReplicationView, Shape, StateEncoding,
+};
 use seam_tests::TestContext;
 use seam_transport::{Backend, Transport};
 
@@ -68,7 +73,22 @@ fn steady_state_adds_no_allocation<S: iceoryx2::service::Service>(backend: Backe
         subscriber.subscribe(channel).expect("subscribe");
     }
     let frame = [7u8; 512];
-    let round = |publisher: &mut Box<dyn Transport>| {
+    // A replication frame of 64 states as a cluster publishes it: its tables built in a
+    // reused encoder, its records written straight into the loaned buffer.
+    let owner = ClusterId::from_u128(1);
+    let mut replication = ReplicationFrame {
+        from: owner,
+        tick: 1,
+        states: (0..64u32)
+            .map(|i| {
+                let body = BodySpec::new(Shape::ball(0.5 + (i % 3) as f32));
+                EntityState::new(EntityId::from_u128(u128::from(i) + 1), owner, body)
+                    .at([i as f32, 0.0, 0.0])
+            })
+            .collect(),
+    };
+    let mut encoder = ReplicationEncoder::default();
+    let mut round = |publisher: &mut Box<dyn Transport>| {
         for channel in &channels {
             publisher.publish(channel, &frame).expect("publish");
             publisher
@@ -78,14 +98,28 @@ fn steady_state_adds_no_allocation<S: iceoryx2::service::Service>(backend: Backe
                 })
                 .expect("publish_with");
         }
+        replication.tick += 1;
+        for encoding in [StateEncoding::Exact, StateEncoding::Quantized] {
+            let len = encoder.prepare(&replication, encoding).expect("encodes");
+            publisher
+                .publish_with(&channels[0], len, &mut |buffer| {
+                    encoder.write(&replication, buffer).ok()
+                })
+                .expect("publish_with");
+        }
     };
     let drain = |subscriber: &mut Box<dyn Transport>| {
-        let mut received = 0;
+        let (mut received, mut states) = (0, 0);
         while let Some(message) = subscriber.try_receive().expect("receive") {
-            assert!(message.payload.len() == 512 || message.payload == b"seam");
+            if let Ok(view) = ReplicationView::parse(message.payload) {
+                // Read in place, every record.
+                states += view.states().filter(Result::is_ok).count();
+            } else {
+                assert!(message.payload.len() == 512 || message.payload == b"seam");
+            }
             received += 1;
         }
-        assert_eq!(received, 4);
+        assert_eq!((received, states), (6, 128));
     };
     for _ in 0..100 {
         round(&mut publisher);
@@ -101,15 +135,15 @@ fn steady_state_adds_no_allocation<S: iceoryx2::service::Service>(backend: Backe
         receiving,
         0,
         "{backend}: {} receives allocated {receiving} times",
-        4 * ROUNDS
+        6 * ROUNDS
     );
     let per_loan = iceoryx2_allocations_per_send::<S>(&ctx);
     assert_eq!(
         publishing,
-        4 * ROUNDS * per_loan,
+        6 * ROUNDS * per_loan,
         "{backend}: {} publishes allocated {publishing} times; plain iceoryx2 allocates \
          {per_loan} per send",
-        4 * ROUNDS
+        6 * ROUNDS
     );
 }
 

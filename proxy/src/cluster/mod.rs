@@ -76,6 +76,10 @@ pub struct Cluster {
     replication_channel: String,
     /// Tables reused by every replication frame this cluster encodes.
     encoder: ReplicationEncoder,
+    /// The owned states and roles gathered for the last replication frame, and its states:
+    /// buffers kept for the next.
+    scratch_owned: Vec<(EntityState, BodyRole)>,
+    scratch_states: Vec<EntityState>,
     stats: ClusterStats,
     /// What this cluster knows of each neighbour's liveness.
     liveness: IdMap<ClusterId, Peer>,
@@ -146,6 +150,8 @@ impl Cluster {
         Ok(Self {
             replication_channel: channels::replication(config.cluster_id),
             encoder: ReplicationEncoder::default(),
+            scratch_owned: Vec::new(),
+            scratch_states: Vec::new(),
             interest: Interest::new(config.region, config.spread),
             config,
             sim,

@@ -105,14 +105,21 @@ impl Cluster {
         let me = self.config.cluster_id;
         let tick = self.sim.tick();
         if tick.is_multiple_of(self.config.replication_interval) {
-            let owned: Vec<(EntityState, BodyRole)> = self
-                .sim
-                .entities()
-                .filter(|(_, info)| info.owner == me)
-                .filter_map(|(id, info)| self.sim.state(id).map(|s| (s, info.role)))
-                .collect();
+            // Gathered into buffers kept from the last frame: a steady-state publish
+            // allocates nothing here.
+            let mut owned = std::mem::take(&mut self.scratch_owned);
+            owned.clear();
+            owned.extend(
+                self.sim
+                    .entities()
+                    .filter(|(_, info)| info.owner == me)
+                    .filter_map(|(id, info)| self.sim.state(id).map(|s| (s, info.role))),
+            );
             self.ask_policy(&owned);
-            let mut states: Vec<EntityState> = owned.into_iter().map(|(s, _)| s).collect();
+            let mut states = std::mem::take(&mut self.scratch_states);
+            states.clear();
+            states.extend(owned.iter().map(|(s, _)| *s));
+            self.scratch_owned = owned;
             let mut handing = Vec::new();
             for state in &mut states {
                 if let Some(&to) = self.transfers.get(&state.id) {
@@ -144,6 +151,7 @@ impl Cluster {
                 &frame,
                 self.config.state_encoding,
             )? as u64;
+            self.scratch_states = frame.states;
             let role = self.proxy_role();
             self.transfers.clear();
             for handed in handing {

@@ -271,9 +271,9 @@ fn read_rotation(bytes: &[u8; 6]) -> WireResult<[f32; 4]> {
     if bits >> 47 != 0 || sum > 1.0 {
         return Err(malformed("rotation is not a unit quaternion"));
     }
+    // Unit by construction, to f32 rounding.
     q[largest] = (1.0 - sum).sqrt();
-    let norm = q.iter().map(|c| c * c).sum::<f32>().sqrt();
-    Ok(q.map(|c| c / norm))
+    Ok(q)
 }
 
 fn halves(values: [f32; 3]) -> [u8; 6] {
@@ -288,9 +288,29 @@ fn halves(values: [f32; 3]) -> [u8; 6] {
 fn read_halves(bytes: &[u8; 6]) -> [f32; 3] {
     let mut values = [0f32; 3];
     for (v, b) in values.iter_mut().zip(bytes.chunks_exact(2)) {
-        *v = f16::from_le_bytes([b[0], b[1]]).to_f32();
+        *v = half_to_f32(u16::from_le_bytes([b[0], b[1]]));
     }
     values
+}
+
+/// An IEEE 754 binary16 as f32 (exact: every half is an f32). Written out rather than through
+/// `half`, whose portable conversion is a call per value: a receiver reads six a state.
+#[inline]
+fn half_to_f32(bits: u16) -> f32 {
+    let sign = u32::from(bits & 0x8000) << 16;
+    let exponent = u32::from(bits >> 10) & 0x1f;
+    let mantissa = u32::from(bits & 0x3ff);
+    match exponent {
+        // Zero and subnormals: mantissa × 2⁻²⁴.
+        0 => {
+            let magnitude = mantissa as f32 * (1.0 / 16_777_216.0);
+            f32::from_bits(sign | magnitude.to_bits())
+        }
+        // Infinity and NaN.
+        0x1f => f32::from_bits(sign | 0x7f80_0000 | (mantissa << 13)),
+        // Normal: rebias the exponent from 15 to 127.
+        _ => f32::from_bits(sign | ((exponent + 112) << 23) | (mantissa << 13)),
+    }
 }
 
 /// Reusable tables for encoding replication frames: keep one per publisher so steady-state
@@ -319,29 +339,28 @@ impl ReplicationEncoder {
         self.specs.clear();
         self.spec_index.clear();
         self.indices.clear();
-        let mut last_spec: Option<([u8; SPEC_LEN], u16)> = None;
+        // Neighbouring states mostly share owner and spec: the last ones are tried first.
+        let mut last_owner = 0;
+        let mut last_spec: Option<(BodySpec, u16)> = None;
         for state in &frame.states {
-            let owner = match self.owners.iter().position(|&o| o == state.cluster_id) {
-                Some(i) => i,
-                None if self.owners.len() < MAX_OWNERS => {
-                    self.owners.push(state.cluster_id);
-                    self.owners.len() - 1
+            let owner = if self.owners[last_owner] == state.cluster_id {
+                last_owner
+            } else {
+                match self.owners.iter().position(|&o| o == state.cluster_id) {
+                    Some(i) => i,
+                    None if self.owners.len() < MAX_OWNERS => {
+                        self.owners.push(state.cluster_id);
+                        self.owners.len() - 1
+                    }
+                    None => return Err(malformed("a frame names at most 255 owners")),
                 }
-                None => return Err(malformed("a frame names at most 255 owners")),
             };
-            let key = spec_key(&state.body);
+            last_owner = owner;
             let spec = match last_spec {
-                Some((last, i)) if last == key => i,
+                Some((last, i)) if last == state.body => i,
                 _ => {
-                    let next = self.specs.len();
-                    if next == MAX_SPECS && !self.spec_index.contains_key(&key) {
-                        return Err(malformed("a frame holds at most 65 535 body specs"));
-                    }
-                    let i = *self.spec_index.entry(key).or_insert(next as u16);
-                    if usize::from(i) == next {
-                        self.specs.push(key);
-                    }
-                    last_spec = Some((key, i));
+                    let i = self.spec_of(&state.body)?;
+                    last_spec = Some((state.body, i));
                     i
                 }
             };
@@ -351,6 +370,38 @@ impl ReplicationEncoder {
             + self.owners.len() * OWNER_LEN
             + self.specs.len() * SPEC_LEN
             + frame.states.len() * encoding.record_len())
+    }
+
+    /// The table index of `spec`, added if new: a scan while the table is short (most frames
+    /// hold a few specs), a hash lookup beyond.
+    fn spec_of(&mut self, spec: &BodySpec) -> WireResult<u16> {
+        const SCANNED: usize = 16;
+        let key = spec_key(spec);
+        let next = self.specs.len();
+        let found = if next <= SCANNED {
+            self.specs.iter().position(|k| *k == key).map(|i| i as u16)
+        } else {
+            self.spec_index.get(&key).copied()
+        };
+        if let Some(i) = found {
+            return Ok(i);
+        }
+        if next == MAX_SPECS {
+            return Err(malformed("a frame holds at most 65 535 body specs"));
+        }
+        self.specs.push(key);
+        if next == SCANNED {
+            // The table outgrows the scan: index everything so far.
+            self.spec_index = self
+                .specs
+                .iter()
+                .enumerate()
+                .map(|(i, k)| (*k, i as u16))
+                .collect();
+        } else if next > SCANNED {
+            self.spec_index.insert(key, next as u16);
+        }
+        Ok(next as u16)
     }
 
     /// Writes `frame`, which [`Self::prepare`] was last given, to the start of `buffer`;
@@ -703,6 +754,18 @@ mod tests {
             let back = read_rotation(&quantize_rotation(q)).expect("a unit quaternion");
             let angle = angle_between(q, back);
             assert!(angle < 2e-4, "{q:?} came back as {back:?}: {angle} rad off");
+        }
+    }
+
+    #[test]
+    fn every_half_float_reads_as_the_half_crate_reads_it() {
+        for bits in 0..=u16::MAX {
+            let ours = half_to_f32(bits);
+            let theirs = f16::from_bits(bits).to_f32();
+            assert!(
+                ours.to_bits() == theirs.to_bits() || (ours.is_nan() && theirs.is_nan()),
+                "{bits:#06x}: {ours} against {theirs}"
+            );
         }
     }
 

@@ -83,7 +83,8 @@ pub(crate) enum Command {
     /// For each scene, runs one trial (as `seam compare`) per combination of proxy mode (fixed,
     /// kinematic), replication interval (1, 2, 4, 8), observation spread (1, 3, 10 m,
     /// everything) and, for scenes that fire projectiles, projectile speed (10–2 000 m/s) and
-    /// CCD (off, on), in lock-step; then the transport axis: the scene as free-running pods
+    /// CCD (off, on), in lock-step; per proxy mode and interval, exact and quantized states at
+    /// the scene's own settings (the quantization axis); then the transport axis: the scene as free-running pods
     /// (`seam run`) on shm and Redis, per proxy mode at the shortest and longest interval,
     /// compared by hits and final positions, with routed-op latency. Writes OUT/sweep.csv (one
     /// row per trial, every metric) and, as SVG and PNG, OUT/accuracy_vs_cost_SCENE (position or
@@ -95,7 +96,7 @@ pub(crate) enum Command {
         #[arg(long = "scene")]
         scenes: Vec<std::path::PathBuf>,
         /// A reduced grid: fixed/kinematic × interval 1, 4 × 50, 500, 2 000 m/s × CCD off/on ×
-        /// spread 3 m / everything.
+        /// spread 3 m / everything, and exact/quantized.
         #[arg(long)]
         quick: bool,
         /// Ticks per trial (default: each scene's).
