@@ -272,36 +272,30 @@ fn end_to_end(c: &mut Criterion) {
 /// noise falls on both alike; prints the ratios the targets are judged by: all modelled
 /// against the floor, and a receiver modelling one entity in ten against all modelled.
 fn paired_ratio() {
-    const WARMUP: usize = 30;
-    const ROUNDS: usize = 300;
     let mut all = EndToEnd::new("shm", StateEncoding::Exact, 1);
     let mut floor = RapierFloor::new(ProxyUpdate::FixedPose);
-    let (seam, floor) = seam_bench::latency::paired_medians(
-        WARMUP,
-        ROUNDS,
-        || all.iteration(),
-        || floor.iteration(),
-    );
-    eprintln!(
-        "replication_10k paired, {ROUNDS} alternating rounds after {WARMUP} warm-up: \
-         end to end on shm median {:.3} ms, Rapier floor median {:.3} ms, end to end / floor = {:.2}",
-        seam * 1e3,
-        floor * 1e3,
-        seam / floor
+    paired(
+        ("end to end on shm", || all.iteration()),
+        ("Rapier floor", || floor.iteration()),
     );
     let mut tenth = EndToEnd::new("shm", StateEncoding::Exact, 10);
-    let (tenth, all) = seam_bench::latency::paired_medians(
-        WARMUP,
-        ROUNDS,
-        || tenth.iteration(),
-        || all.iteration(),
+    paired(
+        ("1 entity in 10 modelled", || tenth.iteration()),
+        ("all modelled", || all.iteration()),
     );
+}
+
+/// Alternates `a` and `b` and prints their medians and the ratio of `a` to `b`.
+fn paired((a_name, a): (&str, impl FnMut()), (b_name, b): (&str, impl FnMut())) {
+    const WARMUP: usize = 30;
+    const ROUNDS: usize = 300;
+    let (a_s, b_s) = seam_bench::latency::paired_medians(WARMUP, ROUNDS, a, b);
     eprintln!(
         "replication_10k paired, {ROUNDS} alternating rounds after {WARMUP} warm-up: \
-         1 entity in 10 modelled median {:.3} ms, all modelled median {:.3} ms, ratio {:.2}",
-        tenth * 1e3,
-        all * 1e3,
-        tenth / all
+         {a_name} median {:.3} ms, {b_name} median {:.3} ms, {a_name} / {b_name} = {:.2}",
+        a_s * 1e3,
+        b_s * 1e3,
+        a_s / b_s
     );
 }
 

@@ -59,3 +59,9 @@ pub(crate) fn envelope(bytes: &[u8]) {
         assert_eq!(payload, &bytes[Envelope::WIRE_LEN..]);
     }
 }
+
+/// Replies on a subscribed Redis connection: see `seam_transport::fuzzing::resp_reader` for
+/// what it asserts.
+pub(crate) fn resp_reader(bytes: &[u8]) {
+    seam_transport::fuzzing::resp_reader(bytes);
+}

@@ -44,3 +44,8 @@ fn events_frame_inputs_pass() {
 fn envelope_inputs_pass() {
     replay("envelope", checks::envelope);
 }
+
+#[test]
+fn resp_reader_inputs_pass() {
+    replay("resp_reader", checks::resp_reader);
+}

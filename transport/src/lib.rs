@@ -46,6 +46,16 @@ pub use redis::{RedisConfig, RedisTransport, redact_url};
 pub use stats::Stats;
 pub use transport::{Backend, Transport};
 
+/// Entry points for the fuzz targets in `fuzz/`: not part of the API.
+#[doc(hidden)]
+pub mod fuzzing {
+    /// Parses `bytes` as replies on a subscribed Redis connection and asserts what the reader
+    /// promises of any input (see `fuzz/src/checks.rs`).
+    pub fn resp_reader(bytes: &[u8]) {
+        crate::redis::fuzz_check_resp(bytes);
+    }
+}
+
 /// Opens the transport a URL names: `shm[?settings]`, `local[?settings]` or `redis://…`.
 pub fn open(url: &str) -> Result<Box<dyn Transport>, OpenError> {
     let url = url.trim();

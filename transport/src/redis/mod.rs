@@ -28,6 +28,8 @@ mod config;
 mod connection;
 mod replies;
 mod resp;
+
+pub(crate) use resp::fuzz_check as fuzz_check_resp;
 mod socket;
 
 use config::Endpoint;

@@ -76,6 +76,10 @@ fn item<'a>(
     pos: &mut usize,
     max_bulk: usize,
 ) -> Result<Option<Header<'a>>, RespError> {
+    if buf.get(*pos..*pos + 2) == Some(&b"\r\n"[..]) {
+        // No type byte: not a reply that more bytes could complete.
+        return Err(RespError::Protocol("empty line"));
+    }
     let Some(line) = line(buf, *pos) else {
         return Ok(None);
     };
@@ -135,6 +139,25 @@ fn number(body: &[u8]) -> Result<i64, RespError> {
         .ok_or(RespError::Protocol("malformed number"))
 }
 
+/// What the fuzz target `resp_reader` checks of any input (see `fuzz/`): no panic; a complete
+/// reply took at most the input and at most four items, parses the same from exactly its own
+/// bytes, and is incomplete (never an error) cut short; an oversized bulk string says to skip
+/// past at least its header.
+pub(crate) fn fuzz_check(bytes: &[u8]) {
+    const MAX_BULK: usize = 64;
+    match parse(bytes, MAX_BULK) {
+        Ok(Some((frame, used))) => {
+            assert!(used > 0 && used <= bytes.len() && frame.len <= MAX_ITEMS);
+            assert_eq!(parse(&bytes[..used], MAX_BULK), Ok(Some((frame, used))));
+            for cut in [0, used / 2, used - 1] {
+                assert_eq!(parse(&bytes[..cut], MAX_BULK), Ok(None), "cut at {cut}");
+            }
+        }
+        Err(RespError::TooLarge { skip }) => assert!(skip > MAX_BULK),
+        Ok(None) | Err(RespError::Protocol(_)) => {}
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -192,5 +215,14 @@ mod tests {
         ));
         assert!(matches!(parse(b"*9\r\n", 100), Err(RespError::Protocol(_))));
         assert!(matches!(parse(b"$x\r\n", 100), Err(RespError::Protocol(_))));
+        // An empty line is not the start of a reply that more bytes could complete.
+        assert!(matches!(
+            parse(b"\r\n+OK\r\n", 100),
+            Err(RespError::Protocol(_))
+        ));
+        assert!(matches!(
+            parse(b"*2\r\n\r\n", 100),
+            Err(RespError::Protocol(_))
+        ));
     }
 }
