@@ -366,10 +366,15 @@ impl ReplicationEncoder {
             };
             self.indices.push((owner as u8, spec));
         }
-        Ok(HEADER_LEN
+        Ok(self.len(frame.states.len()))
+    }
+
+    /// Encoded length of a frame of `states` states with the tables as prepared.
+    fn len(&self, states: usize) -> usize {
+        HEADER_LEN
             + self.owners.len() * OWNER_LEN
             + self.specs.len() * SPEC_LEN
-            + frame.states.len() * encoding.record_len())
+            + states * self.encoding.record_len()
     }
 
     /// The table index of `spec`, added if new: a scan while the table is short (most frames
@@ -408,10 +413,7 @@ impl ReplicationEncoder {
     /// returns the bytes written.
     pub fn write(&self, frame: &ReplicationFrame, buffer: &mut [u8]) -> WireResult<usize> {
         let encoding = self.encoding;
-        let len = HEADER_LEN
-            + self.owners.len() * OWNER_LEN
-            + self.specs.len() * SPEC_LEN
-            + frame.states.len() * encoding.record_len();
+        let len = self.len(frame.states.len());
         if self.indices.len() != frame.states.len() {
             return Err(malformed("the encoder was prepared for another frame"));
         }
