@@ -134,7 +134,18 @@ pub struct ClusterConfig {
     /// rotations, half-float velocities; 55 bytes a state instead of 77). Receivers read
     /// either, so clusters of one world may differ.
     pub state_encoding: StateEncoding,
+    /// A full replication frame (a keyframe) at most every this many ticks; the frames between
+    /// list only the states that changed since the keyframe and mark the rest unchanged, a bit
+    /// each (see `crate::keyframes`). Receivers see the same states either way; what it buys
+    /// is bytes and encoding for bodies at rest. A lost keyframe leaves a receiver with what
+    /// changed since and the rest of its picture (nothing despawned) until the next one, so
+    /// this bounds how long a lost frame can leave a proxy wrong. 0 or 1: every frame is a
+    /// keyframe.
+    pub keyframe_ticks: u64,
 }
+
+/// The default [`ClusterConfig::keyframe_ticks`]: half a second at 60 Hz.
+pub const DEFAULT_KEYFRAME_TICKS: u64 = 30;
 
 /// One cluster of the world, as every cluster is told it.
 #[derive(Debug, Clone, PartialEq)]
@@ -200,6 +211,7 @@ impl ClusterConfig {
             authority: AuthorityMode::default(),
             coupling: true,
             state_encoding: StateEncoding::Exact,
+            keyframe_ticks: DEFAULT_KEYFRAME_TICKS,
         }
     }
 }

@@ -235,6 +235,7 @@ mod dead_reckoning;
 mod error;
 mod inbox;
 mod interest;
+mod keyframes;
 mod lockstep;
 mod prediction;
 mod schedule;
@@ -247,7 +248,9 @@ pub use authority::{
 pub use channels::{physics_events, replication};
 pub use clock::{OpTiming, monotonic_ns};
 pub use cluster::{Cluster, DRAIN_S, MAX_OP_TIMINGS, NeighbourStatus};
-pub use config::{ClusterConfig, CustomProxy, ProxyMode, Region, WorldCluster, world_map};
+pub use config::{
+    ClusterConfig, CustomProxy, DEFAULT_KEYFRAME_TICKS, ProxyMode, Region, WorldCluster, world_map,
+};
 pub use contact_merge::MERGE_WINDOW_TICKS;
 pub use error::ClusterError;
 pub use interest::extent;

@@ -93,9 +93,17 @@ pub struct ClusterStats {
     pub op_timings_dropped: u64,
     /// Bytes of replication frames published (encoded frames, without transport framing).
     pub replication_bytes: u64,
-    /// States listed in the replication frames published: this cluster's own and repeated
-    /// hand-offs.
+    /// States the replication frames published stand for: this cluster's own and repeated
+    /// hand-offs, listed or (in a delta frame) marked unchanged.
     pub states_replicated: u64,
+    /// Of those, states a delta frame marked unchanged rather than listed (see
+    /// `ClusterConfig::keyframe_ticks`).
+    pub states_unchanged: u64,
+    /// Replication frames published whole (keyframes).
+    pub keyframes_sent: u64,
+    /// Delta frames received whose keyframe this cluster did not hold (lost or not yet
+    /// received): used for what they list, with nothing despawned, until the next keyframe.
+    pub keyframes_missed: u64,
     /// Bytes of physics-events frames published.
     pub events_bytes: u64,
     /// Neighbours taken for dead after `neighbour_timeout_ticks` of silence (their proxies

@@ -595,13 +595,14 @@ fn scenery_is_loaded_everywhere_and_never_replicated(ctx: &TestContext) {
         .expect("A's ball")
         .position[1];
     assert!((resting - 0.5).abs() < 0.02, "on the floor: {resting}");
-    // Only the ball travels: A's frames hold one state (about 100 bytes) more than B's, which
-    // hold none (a second, the floor's, would double it).
-    let per_frame = |c: &Cluster| c.stats().replication_bytes / c.stats().ticks;
-    let (a, b) = (per_frame(&clusters[0]), per_frame(&clusters[1]));
-    assert!(
-        (80..=120).contains(&(a - b)),
-        "one state in A's frames ({a} B), none in B's ({b} B)"
+    // Only the ball travels: each of A's frames stands for one state (listed, or marked
+    // unchanged between keyframes), B's for none (the floor's would be a second).
+    let per_frame = |c: &Cluster| (c.stats().states_replicated, c.stats().ticks);
+    let ((a, ticks), (b, _)) = (per_frame(&clusters[0]), per_frame(&clusters[1]));
+    assert_eq!(
+        (a, b),
+        (ticks, 0),
+        "one state in each of A's frames, none in B's"
     );
 }
 

@@ -273,6 +273,7 @@ fn redis_user_and_password_in_the_url_work() {
             replication_interval: 1,
             coupling: true,
             quantize: false,
+            keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
             layers: 1,
             run_id: run::fresh_run_id(),
             node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],

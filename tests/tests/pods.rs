@@ -32,6 +32,7 @@ fn plan(scene_name: &str, transport: String, rate: f64, ticks: u64) -> RunPlan {
         replication_interval: 1,
         coupling: true,
         quantize: false,
+        keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
         layers: 1,
         run_id: run::fresh_run_id(),
         node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],

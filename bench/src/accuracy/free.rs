@@ -54,6 +54,7 @@ pub fn run_free_trial(
         replication_interval: settings.replication_interval,
         coupling: settings.coupling,
         quantize: settings.quantize,
+        keyframe_ticks: settings.keyframe_ticks,
         layers: 1,
         run_id: run_id.to_owned(),
         node_command: free.node_command.clone(),

@@ -43,6 +43,8 @@ pub struct TrialSettings {
     pub coupling: bool,
     /// Quantized replication states (see `seam_sim::wire::StateEncoding`).
     pub quantize: bool,
+    /// A keyframe at most every this many ticks (see `ClusterConfig::keyframe_ticks`).
+    pub keyframe_ticks: u64,
     /// Observation spread of every cluster, m (`None`: the scene's); see `interest`.
     pub spread: Option<f32>,
     /// `false`: every cluster proxies every neighbour entity wherever it is (no interest
@@ -77,6 +79,7 @@ impl Default for TrialSettings {
             replication_interval: 1,
             coupling: true,
             quantize: false,
+            keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
             spread: None,
             interest: true,
             projectile_speed: None,
@@ -196,6 +199,7 @@ pub fn run_trial(
         } else {
             StateEncoding::Exact
         },
+        keyframe_ticks: settings.keyframe_ticks,
         ..PodSettings::new(transport, run_id)
     };
     let prefix = format!("seam_trial_{}_{run_id}_", std::process::id());

@@ -164,6 +164,7 @@ pub fn run(
         replication_interval: 1,
         coupling: true,
         quantize: false,
+        keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
         layers: plan.layers,
         run_id: run_id.clone(),
         node_command: plan.node_command.clone(),

@@ -174,6 +174,12 @@ pub struct ModelArgs {
     /// 77. Off: exact floats.
     #[arg(long)]
     pub quantize: bool,
+    /// A full replication frame (keyframe) at most every this many ticks; frames between list
+    /// only the states that changed and mark the rest unchanged, a bit each. Receivers see the
+    /// same states either way; a lost keyframe can leave a proxy stale this long. 1: every
+    /// frame whole.
+    #[arg(long, default_value_t = seam_proxy::DEFAULT_KEYFRAME_TICKS)]
+    pub keyframe_ticks: u64,
 }
 
 impl ModelArgs {
@@ -284,6 +290,7 @@ pub fn run_node(
         replication_interval: args.model.replication_interval,
         coupling: !args.model.no_coupling,
         state_encoding: args.model.state_encoding(),
+        keyframe_ticks: args.model.keyframe_ticks,
         neighbour_timeout_ticks: args.neighbour_timeout_ticks,
         rejoin: args.rejoin,
         ..PodSettings::new(&args.transport, &args.run_id)

@@ -58,6 +58,8 @@ pub struct PodSettings {
     pub coupling: bool,
     /// How replication frames write motion (see `ClusterConfig::state_encoding`).
     pub state_encoding: StateEncoding,
+    /// A keyframe at most every this many ticks (see `ClusterConfig::keyframe_ticks`).
+    pub keyframe_ticks: u64,
     /// Ticks of silence after which a neighbour is taken for dead (0: never; see
     /// `ClusterConfig::neighbour_timeout_ticks`).
     pub neighbour_timeout_ticks: u64,
@@ -78,6 +80,7 @@ impl PodSettings {
             replication_interval: 1,
             coupling: true,
             state_encoding: StateEncoding::Exact,
+            keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
             neighbour_timeout_ticks: 60,
             rejoin: false,
         }
@@ -242,6 +245,7 @@ impl Pod {
         config.replication_interval = settings.replication_interval.max(1);
         config.coupling = settings.coupling;
         config.state_encoding = settings.state_encoding;
+        config.keyframe_ticks = settings.keyframe_ticks;
         config.dt = scene.dt;
         config.gravity = scene.gravity;
         config.max_linear_velocity = scene.max_speed;

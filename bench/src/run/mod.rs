@@ -49,6 +49,8 @@ pub struct RunPlan {
     pub coupling: bool,
     /// Quantized replication states (see `ModelArgs::quantize`).
     pub quantize: bool,
+    /// A keyframe at most every this many ticks (see `ModelArgs::keyframe_ticks`).
+    pub keyframe_ticks: u64,
     /// Copies of every grid entity stacked along y.
     pub layers: u32,
     /// Shared by the pods of this run.
@@ -135,6 +137,7 @@ pub fn spawn_pod(
     if plan.quantize {
         command.arg("--quantize");
     }
+    command.args(["--keyframe-ticks", &plan.keyframe_ticks.to_string()]);
     let mut child = command
         .spawn()
         .map_err(|e| format!("cannot start the pod of {:?}: {e}", launch.cluster))?;

@@ -1,5 +1,6 @@
 //! [`Cluster`]: one cluster's world joined to a transport, ticking through the three layers.
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use seam_sim::wire::{
@@ -17,6 +18,7 @@ use crate::contact_merge::ContactMerge;
 use crate::error::ClusterError;
 use crate::inbox::{HeldReplication, Inbox, TickFrames};
 use crate::interest::Interest;
+use crate::keyframes::Keyframes;
 use crate::prediction::Predictions;
 use crate::settle::Settlement;
 use crate::stats::ClusterStats;
@@ -76,6 +78,11 @@ pub struct Cluster {
     replication_channel: String,
     /// Tables reused by every replication frame this cluster encodes.
     encoder: ReplicationEncoder,
+    /// The last keyframe this cluster sent, for the delta frames after it.
+    keyframes: Keyframes,
+    /// Each neighbour's last keyframe received, with its tick: what its delta frames are read
+    /// against.
+    keys: IdMap<ClusterId, (u64, Arc<[u8]>)>,
     /// The owned states and roles gathered for the last replication frame, and its states:
     /// buffers kept for the next.
     scratch_owned: Vec<(EntityState, BodyRole)>,
@@ -150,6 +157,8 @@ impl Cluster {
         Ok(Self {
             replication_channel: channels::replication(config.cluster_id),
             encoder: ReplicationEncoder::default(),
+            keyframes: Keyframes::new(config.keyframe_ticks, config.replication_interval),
+            keys: IdMap::default(),
             scratch_owned: Vec::new(),
             scratch_states: Vec::new(),
             interest: Interest::new(config.region, config.spread),
@@ -427,6 +436,14 @@ impl Cluster {
         for frame in frames.replication {
             self.reconcile(&frame);
             if keep_last {
+                let mut frame = frame;
+                if !frame.is_whole()
+                    && let Some(older) = self.last_states.get(&frame.from)
+                {
+                    // A delta frame without its keyframe: the rest of the picture is the one
+                    // held before.
+                    frame.fill_from(older);
+                }
                 self.last_states.insert(frame.from, frame);
             }
         }

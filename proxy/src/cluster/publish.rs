@@ -2,13 +2,16 @@
 //! physics-events frame per neighbour with its routed ops, contacts and impulses.
 
 use seam_sim::BodyRole;
-use seam_sim::wire::{self, EntityState, PhysicsEventsFrame, ReplicationEncoder, ReplicationFrame};
+use seam_sim::wire::{
+    self, DeltaBase, EntityState, PhysicsEventsFrame, ReplicationEncoder, ReplicationFrame,
+};
 use seam_transport::Transport;
 
 use crate::authority::{AuthorityView, NeighbourView};
 use crate::channels;
 use crate::clock::monotonic_ns;
 use crate::error::ClusterError;
+use crate::keyframes::Plan;
 
 use super::{Cluster, NeighbourStatus, RELEASED_FOR};
 
@@ -27,15 +30,19 @@ pub(super) fn publish_frame<T: serde::Serialize>(
 }
 
 /// Encodes a replication frame straight into the transport's buffer, its records written in
-/// place; returns the encoded length.
+/// place (a delta frame when `base` is given); returns the encoded length.
 pub(super) fn publish_replication(
     transport: &mut dyn Transport,
     channel: &str,
     encoder: &mut ReplicationEncoder,
     frame: &ReplicationFrame,
     encoding: wire::StateEncoding,
+    base: Option<DeltaBase<'_>>,
 ) -> Result<usize, ClusterError> {
-    let len = encoder.prepare(frame, encoding)?;
+    let len = match base {
+        Some(base) => encoder.prepare_delta(frame, encoding, base)?,
+        None => encoder.prepare(frame, encoding)?,
+    };
     transport.publish_with(channel, len, &mut |buffer| {
         encoder.write(frame, buffer).ok()
     })?;
@@ -138,18 +145,32 @@ impl Cluster {
             );
             // Earlier hand-offs not yet answered ride along again.
             states.extend(self.handed.values().copied());
+            self.stats.states_replicated += states.len() as u64;
+            let whole = states.len();
+            let plan = self.keyframes.plan(me, tick, &mut states);
+            self.stats.states_unchanged += (whole - states.len()) as u64;
+            let base = match plan {
+                Plan::Key => {
+                    self.stats.keyframes_sent += 1;
+                    None
+                }
+                Plan::Delta {
+                    key_tick,
+                    key_states,
+                } => Some(self.keyframes.base(key_tick, key_states)),
+            };
             let frame = ReplicationFrame {
                 from: me,
                 tick,
                 states,
             };
-            self.stats.states_replicated += frame.states.len() as u64;
             self.stats.replication_bytes += publish_replication(
                 self.transport.as_mut(),
                 &self.replication_channel,
                 &mut self.encoder,
                 &frame,
                 self.config.state_encoding,
+                base,
             )? as u64;
             self.scratch_states = frame.states;
             let role = self.proxy_role();

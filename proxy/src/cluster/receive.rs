@@ -1,6 +1,8 @@
 //! Taking frames in: decoding them from the received bytes and filing them in the inbox, with
 //! replays, implausible ticks and malformed bytes counted and dropped.
 
+use std::sync::Arc;
+
 use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame};
 
 use crate::channels::{self, Channel};
@@ -71,6 +73,26 @@ pub(super) fn decode_frame(channel: &str, payload: &[u8]) -> Result<Frame, Rejec
 }
 
 impl Cluster {
+    /// Keeps a keyframe, or gives a delta frame the keyframe it names (counted when this
+    /// cluster does not hold it).
+    fn read_against_key(&mut self, frame: &mut HeldReplication) {
+        match frame.key_tick() {
+            None => {
+                let newer = self
+                    .keys
+                    .get(&frame.from)
+                    .is_none_or(|&(tick, _)| tick <= frame.tick);
+                if newer {
+                    self.keys.insert(frame.from, (frame.tick, frame.bytes()));
+                }
+            }
+            Some(key_tick) => match self.keys.get(&frame.from) {
+                Some((tick, key)) if *tick == key_tick => frame.read_against(Arc::clone(key)),
+                _ => self.stats.keyframes_missed += 1,
+            },
+        }
+    }
+
     /// Moves everything the transport holds into the inbox.
     pub(super) fn drain(&mut self) -> Result<(), ClusterError> {
         while let Some(message) = self.transport.try_receive()? {
@@ -91,7 +113,8 @@ impl Cluster {
                 return;
             }
             Ok(frame) if self.replayed(frame.from(), frame.tick(), frame.is_replication()) => None,
-            Ok(Frame::Replication(frame)) if self.config.neighbours.contains(&frame.from) => {
+            Ok(Frame::Replication(mut frame)) if self.config.neighbours.contains(&frame.from) => {
+                self.read_against_key(&mut frame);
                 let from = (frame.from, frame.tick, true);
                 let kept = if self.free_running {
                     self.inbox.add_replication_newest(frame)

@@ -126,7 +126,11 @@ impl Cluster {
             }
         }
         // Proxies of this neighbour that its frame no longer lists have left (or were
-        // destroyed): nothing else is modelled.
+        // destroyed): nothing else is modelled. A delta frame without its keyframe lists only
+        // what changed, so it says nothing of the others.
+        if !frame.is_whole() {
+            return;
+        }
         let departed: Vec<EntityId> = self
             .sim
             .entities()

@@ -1,7 +1,7 @@
 //! The wire: what clusters send each other, each frame behind a format version byte.
 //!
 //! Replication frames, a tick's worth of entity states, are fixed-layout records a receiver
-//! validates and reads in place ([`ReplicationView`], laid out in `replication.rs`); events
+//! validates and reads in place ([`ReplicationView`], laid out in `replication/`); events
 //! frames (routed ops, contacts, impulses) are postcard. Decoding takes untrusted bytes: it
 //! returns a [`WireError`] rather than panicking, rejects trailing bytes, and grows lists only as
 //! elements actually decode, so a forged length cannot make it allocate more than the input
@@ -13,7 +13,7 @@ mod replication;
 
 pub use ids::{ClusterId, EntityId, IdHasher, IdMap};
 pub use replication::{
-    MAX_QUANTIZED_VELOCITY, MAX_STATE_LEN, POSITION_STEPS_PER_METRE, ReplicationEncoder,
+    DeltaBase, MAX_QUANTIZED_VELOCITY, MAX_STATE_LEN, POSITION_STEPS_PER_METRE, ReplicationEncoder,
     ReplicationView, StateEncoding,
 };
 
@@ -21,7 +21,7 @@ use serde::de::{DeserializeOwned, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
 
 /// The format version every frame starts with.
-pub const WIRE_VERSION: u8 = 4;
+pub const WIRE_VERSION: u8 = 5;
 
 /// A collision shape, as small as a proxy needs.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

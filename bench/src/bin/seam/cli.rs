@@ -293,6 +293,7 @@ impl Knobs {
             replication_interval: self.model.replication_interval.max(1),
             coupling: !self.model.no_coupling,
             quantize: self.model.quantize,
+            keyframe_ticks: self.model.keyframe_ticks,
             spread: self.spread,
             interest: !self.everything,
             projectile_speed: self.speed,

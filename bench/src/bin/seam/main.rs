@@ -38,6 +38,7 @@ fn main() -> ExitCode {
             replication_interval: model.replication_interval,
             coupling: !model.no_coupling,
             quantize: model.quantize,
+            keyframe_ticks: model.keyframe_ticks,
             layers,
             run_id: run::fresh_run_id(),
             node_command: Vec::new(),

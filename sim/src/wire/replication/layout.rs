@@ -1,0 +1,150 @@
+//! The byte layout of a replication frame: header, tables and records, each a `Pod` of byte
+//! arrays (alignment 1), and the body-spec table entry's encoding.
+
+use bytemuck::{Pod, Zeroable};
+
+use super::WireResult;
+use crate::wire::{BodySpec, Shape, WireError};
+
+#[derive(Clone, Copy, Pod, Zeroable)]
+#[repr(C)]
+pub(super) struct Header {
+    pub(super) version: u8,
+    pub(super) encoding: u8,
+    pub(super) owners: u8,
+    pub(super) kind: u8,
+    pub(super) specs: [u8; 2],
+    pub(super) reserved2: [u8; 2],
+    pub(super) tick: [u8; 8],
+    pub(super) states: [u8; 4],
+}
+
+#[derive(Clone, Copy, Pod, Zeroable)]
+#[repr(C)]
+pub(super) struct SpecRecord {
+    pub(super) kind: u8,
+    pub(super) flags: u8,
+    pub(super) reserved: [u8; 2],
+    pub(super) density: [u8; 4],
+    pub(super) sizes: [u8; 12],
+}
+
+#[derive(Clone, Copy, Pod, Zeroable)]
+#[repr(C)]
+pub(super) struct Identity {
+    pub(super) id: [u8; 16],
+    pub(super) epoch: [u8; 4],
+    pub(super) age: [u8; 2],
+    pub(super) owner: u8,
+    pub(super) spec: [u8; 2],
+}
+
+#[derive(Clone, Copy, Pod, Zeroable)]
+#[repr(C)]
+pub(super) struct ExactRecord {
+    pub(super) who: Identity,
+    pub(super) position: [u8; 12],
+    pub(super) rotation: [u8; 16],
+    pub(super) linvel: [u8; 12],
+    pub(super) angvel: [u8; 12],
+}
+
+#[derive(Clone, Copy, Pod, Zeroable)]
+#[repr(C)]
+pub(super) struct QuantizedRecord {
+    pub(super) who: Identity,
+    pub(super) position: [u8; 12],
+    pub(super) rotation: [u8; 6],
+    pub(super) linvel: [u8; 6],
+    pub(super) angvel: [u8; 6],
+}
+
+/// What follows the tables of a delta frame: the keyframe it is read against, then a bitmap
+/// of that keyframe's states still as they were.
+#[derive(Clone, Copy, Pod, Zeroable)]
+#[repr(C)]
+pub(super) struct DeltaHead {
+    pub(super) key_tick: [u8; 8],
+    pub(super) key_states: [u8; 4],
+}
+
+/// `Header::kind` of a frame that lists every state (a keyframe).
+pub(super) const KIND_FULL: u8 = 0;
+/// `Header::kind` of a frame read against a keyframe.
+pub(super) const KIND_DELTA: u8 = 1;
+pub(super) const DELTA_HEAD_LEN: usize = size_of::<DeltaHead>();
+
+pub(super) const HEADER_LEN: usize = size_of::<Header>();
+pub(super) const OWNER_LEN: usize = 16;
+pub(super) const SPEC_LEN: usize = size_of::<SpecRecord>();
+pub(super) const MAX_OWNERS: usize = u8::MAX as usize;
+pub(super) const MAX_SPECS: usize = u16::MAX as usize;
+
+const FLAG_CCD: u8 = 1;
+const FLAG_SIMULATED: u8 = 2;
+
+pub(super) fn malformed(what: impl Into<String>) -> WireError {
+    WireError::Malformed(what.into())
+}
+
+pub(super) fn floats<const N: usize, const B: usize>(values: [f32; N]) -> [u8; B] {
+    let mut bytes = [0u8; B];
+    for (slot, value) in bytes.chunks_exact_mut(4).zip(values) {
+        slot.copy_from_slice(&value.to_le_bytes());
+    }
+    bytes
+}
+
+pub(super) fn read_floats<const N: usize>(bytes: &[u8]) -> [f32; N] {
+    let mut values = [0f32; N];
+    for (value, b) in values.iter_mut().zip(bytes.chunks_exact(4)) {
+        *value = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    }
+    values
+}
+
+pub(super) fn spec_record(spec: &BodySpec) -> SpecRecord {
+    let (kind, sizes) = match spec.shape {
+        Shape::Ball { radius } => (0, [radius, 0.0, 0.0]),
+        Shape::Cuboid { half_extents } => (1, half_extents),
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => (2, [half_height, radius, 0.0]),
+    };
+    let flags =
+        if spec.ccd { FLAG_CCD } else { 0 } | if spec.simulated { FLAG_SIMULATED } else { 0 };
+    SpecRecord {
+        kind,
+        flags,
+        reserved: [0; 2],
+        density: spec.density.to_le_bytes(),
+        sizes: floats(sizes),
+    }
+}
+
+pub(super) fn read_spec(record: &SpecRecord) -> WireResult<BodySpec> {
+    let [a, b, c] = read_floats::<3>(&record.sizes);
+    let shape = match record.kind {
+        0 => Shape::Ball { radius: a },
+        1 => Shape::Cuboid {
+            half_extents: [a, b, c],
+        },
+        2 => Shape::Capsule {
+            half_height: a,
+            radius: b,
+        },
+        kind => return Err(malformed(format!("unknown shape kind {kind}"))),
+    };
+    Ok(BodySpec {
+        shape,
+        density: f32::from_le_bytes(record.density),
+        ccd: record.flags & FLAG_CCD != 0,
+        simulated: record.flags & FLAG_SIMULATED != 0,
+    })
+}
+
+/// Bit-exact key of a body spec, to share one table entry between equal specs.
+pub(super) fn spec_key(spec: &BodySpec) -> [u8; SPEC_LEN] {
+    bytemuck::cast(spec_record(spec))
+}
