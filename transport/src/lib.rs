@@ -35,6 +35,7 @@ mod pattern;
 mod redis;
 mod stats;
 mod transport;
+mod url;
 
 pub use channel::{MAX_CHANNEL_LEN, validate_channel};
 pub use envelope::{ENVELOPE_VERSION, Envelope};
@@ -63,7 +64,7 @@ pub fn open(url: &str) -> Result<Box<dyn Transport>, OpenError> {
     {
         return Ok(Box::new(RedisTransport::open(url)?));
     }
-    let (scheme, query) = url.split_once('?').unwrap_or((url, ""));
+    let (scheme, settings) = crate::url::split(url);
     let backend = match scheme {
         "shm" => Backend::Shm,
         "local" => Backend::Local,
@@ -75,10 +76,9 @@ pub fn open(url: &str) -> Result<Box<dyn Transport>, OpenError> {
         }
     };
     let mut config = IceoryxConfig::default();
-    for pair in query.split('&').filter(|p| !p.is_empty()) {
-        let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
+    for setting in settings {
         config
-            .set(key, value)
+            .set(setting.key, setting.value)
             .map_err(|reason| OpenError::InvalidUrl {
                 url: url.to_owned(),
                 reason,

@@ -49,11 +49,11 @@ impl Endpoint {
             url: shown.clone(),
             reason,
         };
-        let (base, query) = url.split_once('?').unwrap_or((url, ""));
+        let (base, settings) = crate::url::split(url);
         let mut config = RedisConfig::default();
         let mut passed = Vec::new();
-        for pair in query.split('&').filter(|p| !p.is_empty()) {
-            let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
+        for setting in settings {
+            let (key, value) = (setting.key, setting.value);
             let number = || {
                 value
                     .parse::<u64>()
@@ -72,7 +72,7 @@ impl Endpoint {
                         _ => return Err(invalid("`reconnect` must be 0 or 1".to_owned())),
                     }
                 }
-                _ => passed.push(pair),
+                _ => passed.push(setting.text),
             }
         }
         let redis_url = if passed.is_empty() {
