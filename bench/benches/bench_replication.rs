@@ -48,6 +48,7 @@ fn events(batch: usize) -> PhysicsEventsFrame {
             .collect(),
         contacts: Vec::new(),
         impulses: Vec::new(),
+        leaving: false,
     }
 }
 

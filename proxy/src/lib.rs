@@ -159,6 +159,13 @@
 //! the timeout) is dropped (`frames_implausible`): it could only be forged, and would otherwise
 //! pass for the newest.
 //!
+//! A cluster that stops on purpose calls [`Cluster::leave`]: a last events frame to each
+//! neighbour, marked `leaving`. They take it as [`NeighbourStatus::Left`] (one tick later, so
+//! its last replication frame is reconciled first): never taken for dead, nothing adopted from
+//! it — what it owns leaves with it — and hand-offs to it that it had not taken come back
+//! (`handoffs_reclaimed`). `seam node` leaves after its last tick, so a pod still ticking
+//! behind the schedule does not adopt what its finished neighbours end the run owning.
+//!
 //! # Adoption: no entity lost
 //!
 //! With a world map ([`ClusterConfig::world`]: every cluster's region and neighbours), the

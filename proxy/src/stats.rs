@@ -109,6 +109,8 @@ pub struct ClusterStats {
     /// Neighbours taken for dead after `neighbour_timeout_ticks` of silence (their proxies
     /// despawned).
     pub neighbours_lost: u64,
+    /// Neighbours that said they were stopping on purpose (see `Cluster::leave`).
+    pub neighbours_left: u64,
     /// Neighbours heard from again after being taken for dead.
     pub neighbours_rejoined: u64,
     /// Entities of a neighbour taken for dead that this cluster adopted (see
@@ -118,7 +120,8 @@ pub struct ClusterStats {
     pub handoffs_reclaimed: u64,
     /// Adopted entities handed back to their owner when it was heard from again.
     pub entities_returned: u64,
-    /// Routed writes queued for a neighbour taken for dead: not sent.
+    /// Routed writes queued for a neighbour taken for dead or gone (see
+    /// `NeighbourStatus::is_gone`): not sent.
     pub ops_dropped_owner_dead: u64,
     /// Frames tagged further ahead than a live sender could be (see the crate docs on
     /// liveness): dropped as forged.

@@ -106,6 +106,7 @@ fn events() -> PhysicsEventsFrame {
             impulse: [-3.0, 0.25, 0.0],
             tick: 99,
         }],
+        leaving: true,
     }
 }
 

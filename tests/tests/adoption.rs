@@ -1,7 +1,8 @@
 //! No entity lost: the entities of a cluster taken for dead are adopted by exactly one
 //! survivor, by the rule every survivor computes the same way (nearest region, then smallest
 //! id); an entity handed to it just before it died comes back to the cluster that handed it;
-//! and when it is heard from again, the adopters hand them back. Three clusters
+//! and when it is heard from again, the adopters hand them back. A cluster that says it is
+//! leaving is not taken for dead: nothing is adopted from it. Three clusters
 //! in a row along x, in one process on the in-process transport.
 
 use seam_proxy::{AuthorityMode, Cluster, ClusterConfig, NeighbourStatus, Region, WorldCluster};
@@ -170,4 +171,71 @@ fn a_dead_clusters_entities_are_adopted_once_and_returned() {
             Some(NeighbourStatus::Alive)
         );
     }
+}
+
+#[test]
+fn a_cluster_that_leaves_is_not_taken_for_dead_and_keeps_what_it_owns() {
+    let url = format!("local?prefix=seam_leave_{}_", std::process::id());
+    let mut clusters = row(&url);
+    let mut clock = HandClock::new(clusters[0].config().dt);
+    let (west, middle, east) = (0, 1, 2);
+    let middle_id = clusters[middle].id();
+    let balls: Vec<_> = [-4.0, 0.0, 4.0]
+        .iter()
+        .map(|&x| ball_at(x, middle_id))
+        .collect();
+    for ball in &balls {
+        clusters[middle]
+            .spawn_owned(ball, BodyRole::Dynamic)
+            .expect("spawn");
+    }
+    let handed = ball_at(-12.0, clusters[west].id());
+    clusters[west]
+        .spawn_owned(&handed, BodyRole::Dynamic)
+        .expect("spawn");
+    for _ in 0..3 {
+        tick(&mut clusters, &mut clock, &[west, middle, east]);
+    }
+    // West hands a ball to middle, which stops on purpose before it reads the hand-off, and
+    // says so; west and east go on far past the timeout.
+    clusters[west]
+        .transfer_authority(handed.id, middle_id)
+        .expect("hand-off");
+    tick(&mut clusters, &mut clock, &[west, east]);
+    clusters[middle].leave().expect("leave");
+    for _ in 0..3 * TIMEOUT_TICKS {
+        tick(&mut clusters, &mut clock, &[west, east]);
+    }
+    for survivor in [west, east] {
+        assert_eq!(
+            clusters[survivor].neighbour_status(middle_id),
+            Some(NeighbourStatus::Left)
+        );
+        let stats = clusters[survivor].stats();
+        assert_eq!((stats.neighbours_lost, stats.neighbours_left), (0, 1));
+        assert_eq!(
+            stats.entities_adopted, 0,
+            "nothing adopted from a cluster that left"
+        );
+    }
+    for ball in &balls {
+        assert_eq!(
+            owners(&clusters, ball.id),
+            vec![middle],
+            "middle keeps {}",
+            ball.id
+        );
+    }
+    assert_eq!(
+        owners(&clusters, handed.id),
+        vec![west],
+        "the hand-off middle never took is back with west"
+    );
+    assert_eq!(clusters[west].stats().handoffs_reclaimed, 1);
+    assert!(
+        clusters[west]
+            .transfer_authority(handed.id, middle_id)
+            .is_err(),
+        "nothing is handed to a cluster that left"
+    );
 }

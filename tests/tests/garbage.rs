@@ -157,6 +157,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
             .collect(),
         contacts: Vec::new(),
         impulses: Vec::new(),
+        leaving: false,
     };
     let target = mine[0].id;
     let mut expected = Tally::default();

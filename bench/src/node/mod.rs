@@ -365,6 +365,9 @@ pub fn run_node(
             emit(out, &NodeLine::Progress(Box::new(progress)))?;
         }
     }
+    // Stopping on purpose: a neighbour still ticking (behind the schedule, or running
+    // longer) must not take this pod for dead and adopt what it ends the run owning.
+    pod.cluster_mut().leave().map_err(fail)?;
     let done = schedule.next_tick();
     let (entities_owned, proxies) = pod.population();
     let transport = pod.cluster().transport_stats();

@@ -149,6 +149,7 @@ fn measure(
         ops: Vec::with_capacity(batch),
         contacts: Vec::new(),
         impulses: Vec::new(),
+        leaving: false,
     };
     let mut started = Instant::now();
     for round in 0..plan.warmup + plan.rounds {

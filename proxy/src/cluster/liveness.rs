@@ -17,6 +17,18 @@ pub enum NeighbourStatus {
     /// Silent for longer than `neighbour_timeout_ticks`: taken for dead, its proxies were
     /// despawned and its entities may be adopted. A frame from it again makes it `Alive`.
     Dead,
+    /// Said it was stopping on purpose ([`Cluster::leave`](crate::Cluster::leave)): never
+    /// taken for dead, nothing adopted from it; hand-offs to it that it had not taken came
+    /// back. A frame from it again makes it `Alive`.
+    Left,
+}
+
+impl NeighbourStatus {
+    /// Taken for dead or left: nothing of this cluster's goes to it (no hand-off, no routed
+    /// write), and it adopts nothing.
+    pub fn is_gone(self) -> bool {
+        matches!(self, NeighbourStatus::Dead | NeighbourStatus::Left)
+    }
 }
 
 /// What a cluster tracks of one neighbour.
@@ -107,12 +119,8 @@ impl Cluster {
             .map(|frame| frame.states().filter_map(Result::ok).collect())
             .unwrap_or_default();
         let liveness = &self.liveness;
-        let alive = |c: ClusterId| {
-            c == me
-                || liveness
-                    .get(&c)
-                    .is_none_or(|peer| peer.status != NeighbourStatus::Dead)
-        };
+        let alive =
+            |c: ClusterId| c == me || liveness.get(&c).is_none_or(|peer| !peer.status.is_gone());
         for state in last.iter().filter(|s| s.cluster_id == dead) {
             if adoption::adopter(&self.config.world, dead, state.position, alive) != Some(me) {
                 continue;
@@ -176,7 +184,7 @@ impl Cluster {
     pub(super) fn heard(&mut self, neighbour: ClusterId, tick: u64, replication: bool) {
         let now = self.sim.tick();
         if let Some(peer) = self.liveness.get_mut(&neighbour) {
-            let back = peer.status == NeighbourStatus::Dead;
+            let back = peer.status.is_gone();
             if back {
                 // Back, perhaps restarted with a lower tick: its ticks count afresh.
                 self.stats.neighbours_rejoined += 1;
@@ -203,6 +211,42 @@ impl Cluster {
                 );
             }
         }
+    }
+
+    /// `neighbour` said it is stopping (its last frames, taken this tick, were reconciled
+    /// first): it is not waited for or taken for dead, and hand-offs to it that its frames
+    /// never answered are taken back — it will not take them now.
+    pub(super) fn neighbour_left(&mut self, neighbour: ClusterId) {
+        let me = self.config.cluster_id;
+        let Some(peer) = self.liveness.get_mut(&neighbour) else {
+            return;
+        };
+        peer.status = NeighbourStatus::Left;
+        self.stats.neighbours_left += 1;
+        let unanswered: Vec<EntityState> = self
+            .handed
+            .values()
+            .filter(|handed| handed.cluster_id == neighbour)
+            .copied()
+            .collect();
+        for handed in unanswered {
+            self.handed.swap_remove(&handed.id);
+            let back = EntityState {
+                cluster_id: me,
+                epoch: handed.epoch + 1,
+                ..handed
+            };
+            if self.sim.set_role(back.id, owner_role(&back)).is_ok()
+                && self.sim.apply_state(&back).is_ok()
+            {
+                self.stats.handoffs_reclaimed += 1;
+            }
+        }
+        tracing::info!(
+            cluster = %me,
+            %neighbour,
+            "neighbour left: not waited for, nothing adopted from it"
+        );
     }
 
     /// Hands every entity adopted from `neighbour`, which is back, to it again at the next

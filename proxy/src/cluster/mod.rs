@@ -4,8 +4,8 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use seam_sim::wire::{
-    self, ClusterId, ContactReport, EntityId, EntityState, IdMap, ReplicationEncoder,
-    ReplicationFrame, RoutedOp, SeamImpulseReport,
+    self, ClusterId, ContactReport, EntityId, EntityState, IdMap, PhysicsEventsFrame,
+    ReplicationEncoder, ReplicationFrame, RoutedOp, SeamImpulseReport,
 };
 use seam_sim::{BodyRole, ClusterSim, ContactEvent, PhysicsHandle, SimConfig, TickContext};
 use seam_transport::Transport;
@@ -118,6 +118,11 @@ pub struct Cluster {
     settlement: Settlement,
     /// Impulses routed by game code, shown on this world's coupled proxies of their targets.
     predictions: Predictions,
+    /// Set by [`Cluster::leave`]: every events frame from then on says so.
+    leaving: bool,
+    /// Neighbours that said they are leaving, heard last tick: taken as left this tick, so
+    /// that their last replication frame, on another channel, is reconciled first.
+    leaving_heard: Vec<ClusterId>,
 }
 
 impl Cluster {
@@ -184,6 +189,8 @@ impl Cluster {
             outgoing_impulses: IdMap::default(),
             settlement: Settlement::default(),
             predictions: Predictions::default(),
+            leaving: false,
+            leaving_heard: Vec::new(),
             policy: match config_authority {
                 AuthorityMode::Spatial(settings) => Some(Box::new(Spatial::new(settings))),
                 AuthorityMode::Scripted | AuthorityMode::Custom => None,
@@ -253,6 +260,34 @@ impl Cluster {
     /// have, and its entity ends owned by nobody.
     pub fn stop_policy_handoffs(&mut self) {
         self.policy = None;
+    }
+
+    /// Says to every neighbour that this cluster stops on purpose: one last physics-events
+    /// frame each, marked `leaving`, so that they do not take it for dead when it falls silent
+    /// and adopt nothing from it — what it owns leaves with it (hand it over first to keep it
+    /// in the world); hand-offs to it that it has not taken go back to their senders. Call it
+    /// once, after the last tick; a later tick says so again.
+    pub fn leave(&mut self) -> Result<(), ClusterError> {
+        self.leaving = true;
+        for i in 0..self.config.neighbours.len() {
+            let neighbour = self.config.neighbours[i];
+            let frame = PhysicsEventsFrame {
+                from: self.config.cluster_id,
+                // One past the last tick's frame, which it would otherwise replay.
+                tick: self.sim.tick() + 1,
+                published_ns: monotonic_ns(),
+                ops: Vec::new(),
+                contacts: Vec::new(),
+                impulses: Vec::new(),
+                leaving: true,
+            };
+            self.stats.events_bytes += publish::publish_frame(
+                self.transport.as_mut(),
+                &channels::physics_events(neighbour),
+                &frame,
+            )? as u64;
+        }
+        Ok(())
     }
 
     /// Sets the hook that moves proxies in [`ProxyMode::Custom`].
@@ -328,8 +363,12 @@ impl Cluster {
         if !self.config.neighbours.contains(&to) {
             return Err(refuse("not a neighbour"));
         }
-        if self.neighbour_status(to) == Some(NeighbourStatus::Dead) {
-            return Err(refuse("the neighbour is taken for dead (silent)"));
+        match self.neighbour_status(to) {
+            Some(NeighbourStatus::Dead) => {
+                return Err(refuse("the neighbour is taken for dead (silent)"));
+            }
+            Some(NeighbourStatus::Left) => return Err(refuse("the neighbour has left")),
+            _ => {}
         }
         self.transfers.insert(entity, to);
         Ok(())
@@ -447,6 +486,16 @@ impl Cluster {
                 self.last_states.insert(frame.from, frame);
             }
         }
+        for neighbour in std::mem::take(&mut self.leaving_heard) {
+            self.neighbour_left(neighbour);
+        }
+        self.leaving_heard.extend(
+            frames
+                .events
+                .iter()
+                .filter(|(frame, _)| frame.leaving)
+                .map(|(frame, _)| frame.from),
+        );
         // Each contact once per side (see `crate::contact_merge`): this world's own events,
         // then the neighbours' reports.
         let tick = self.sim.tick();

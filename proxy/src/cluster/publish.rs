@@ -71,7 +71,7 @@ impl Cluster {
                 alive: self
                     .liveness
                     .get(&id)
-                    .is_none_or(|peer| peer.status != NeighbourStatus::Dead),
+                    .is_none_or(|peer| !peer.status.is_gone()),
             })
             .collect();
         // Adopted entities stay in custody until their owner returns and gets them back.
@@ -195,7 +195,10 @@ impl Cluster {
                 .get_mut(&neighbour)
                 .map(std::mem::take)
                 .unwrap_or_default();
-            if self.neighbour_status(neighbour) == Some(NeighbourStatus::Dead) {
+            if self
+                .neighbour_status(neighbour)
+                .is_some_and(NeighbourStatus::is_gone)
+            {
                 // Taken for dead: its entities are adopted or gone, so writes queued for it
                 // (before it was) have no owner there. The empty frame still tells it, should it
                 // be alive after all, that this cluster is.
@@ -217,6 +220,7 @@ impl Cluster {
                     .get_mut(&neighbour)
                     .map(std::mem::take)
                     .unwrap_or_default(),
+                leaving: self.leaving,
             };
             self.stats.ops_routed += frame.ops.len() as u64;
             self.stats.events_bytes += publish_frame(

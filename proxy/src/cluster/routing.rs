@@ -54,7 +54,9 @@ impl Cluster {
                         if info.owner != self.config.cluster_id
                             && !routed.forwarded
                             && self.config.neighbours.contains(&info.owner)
-                            && self.neighbour_status(info.owner) != Some(NeighbourStatus::Dead) =>
+                            && !self
+                                .neighbour_status(info.owner)
+                                .is_some_and(NeighbourStatus::is_gone) =>
                     {
                         self.outgoing_ops
                             .entry(info.owner)

@@ -296,6 +296,9 @@ pub struct PhysicsEventsFrame {
     /// destination's entities gave the sender's bodies in its last step.
     #[serde(deserialize_with = "grow_as_decoded")]
     pub impulses: Vec<SeamImpulseReport>,
+    /// The sender stops on purpose after this frame: it is not to be taken for dead, and what
+    /// it owns leaves with it (see `seam_proxy::Cluster::leave`).
+    pub leaving: bool,
 }
 
 /// Why bytes are not a frame.
