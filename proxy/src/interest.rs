@@ -20,6 +20,7 @@
 //! `crate::authority` and `crate::adoption`): ownership is one cluster's, and an extent can lie
 //! in several regions at once.
 
+use seam_sim::box_grid::BoxGrid;
 use seam_sim::wire::{EntityState, Shape};
 
 use crate::config::Region;
@@ -88,14 +89,20 @@ fn matrix([x, y, z, w]: [f32; 4]) -> [[f32; 3]; 3] {
     ]
 }
 
+/// Cell side of the grid the rooms around this cluster's bodies are filed in, m: about a room's
+/// size (a body's extent grown by the spread).
+const ROOM_GRID_CELL_M: f32 = 4.0;
+
 /// Where a cluster models neighbour entities this tick.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub(crate) struct Interest {
     /// The region grown by the spread.
     around_region: Option<Region>,
     /// The room around each of this cluster's own bodies that is outside `around_region`:
     /// its extent with its sweep, grown by the spread.
     around_bodies: Vec<Region>,
+    /// `around_bodies` filed in a grid, so that a query looks only at the rooms near it.
+    rooms: BoxGrid,
     /// Regions watched on request, each until a tick (see `Cluster::watch`).
     watched: Vec<(Region, u64)>,
 }
@@ -106,6 +113,7 @@ impl Interest {
         Self {
             around_region: Some(region.grown(spread)),
             around_bodies: Vec::new(),
+            rooms: BoxGrid::new(ROOM_GRID_CELL_M),
             watched: Vec::new(),
         }
     }
@@ -130,18 +138,24 @@ impl Interest {
         spread: f32,
     ) {
         self.around_bodies.clear();
+        self.rooms.clear();
         for state in owned {
             let room = extent(state, sweep_s).grown(spread);
             if !self.around_region.is_some_and(|r| r.contains(&room)) {
+                self.rooms
+                    .insert(self.around_bodies.len() as u32, room.min, room.max);
                 self.around_bodies.push(room);
             }
         }
+        self.rooms.seal();
     }
 
     /// Whether a neighbour entity with this extent is modelled.
     pub(crate) fn covers(&self, extent: &Region) -> bool {
         self.around_region.is_some_and(|r| r.overlaps(extent))
-            || self.around_bodies.iter().any(|room| room.overlaps(extent))
+            || self.rooms.any(extent.min, extent.max, |i| {
+                self.around_bodies[i as usize].overlaps(extent)
+            })
             || self.watched.iter().any(|(r, _)| r.overlaps(extent))
     }
 }

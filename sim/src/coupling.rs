@@ -30,6 +30,7 @@
 use rapier3d::prelude::*;
 
 use crate::body::Entry;
+use crate::box_grid::BoxGrid;
 use crate::entity::BodyRole;
 use crate::wire::{ClusterId, EntityId, IdMap};
 
@@ -54,6 +55,10 @@ pub struct CouplingChanges {
 /// The most ticks a Fixed proxy is carried forward by its replicated velocity when coupled:
 /// past a few frames' worth, the owner's frames have stopped coming and a guess is no better.
 pub const MAX_LEAD_TICKS: u64 = 16;
+
+/// Cell side of the grid the proxies' boxes are filed in when coupling spreads through them, m:
+/// about a body's size, so a box touches a few cells.
+const PROXY_GRID_CELL_M: f32 = 2.0;
 
 fn swept_box(
     body: &RigidBody,
@@ -140,14 +145,24 @@ pub(crate) fn couple(
         // Through proxies: what a coupled proxy may touch is coupled too, so a push passes
         // down a row of the neighbour's bodies as it would in one world.
         // Proxies moved since the last step are not where the query structure has them, so
-        // this goes through the proxies themselves (few are coupled at a time).
-        while let Some(from) = queue.pop() {
-            let reach = proxies[from].1;
-            for other in 0..proxies.len() {
-                if !dynamic[other] && proxies[other].1.intersects(&reach) {
-                    dynamic[other] = true;
-                    queue.push(other);
-                }
+        // this goes through the proxies' own boxes, filed in a grid so that each coupled proxy
+        // looks only at those near it (the same closure as testing every pair).
+        if !queue.is_empty() {
+            let mut grid = BoxGrid::new(PROXY_GRID_CELL_M);
+            for (slot, (_, reach)) in proxies.iter().enumerate() {
+                grid.insert(slot as u32, reach.mins.to_array(), reach.maxs.to_array());
+            }
+            grid.seal();
+            while let Some(from) = queue.pop() {
+                let reach = proxies[from].1;
+                grid.any(reach.mins.to_array(), reach.maxs.to_array(), |other| {
+                    let other = other as usize;
+                    if !dynamic[other] && proxies[other].1.intersects(&reach) {
+                        dynamic[other] = true;
+                        queue.push(other);
+                    }
+                    false
+                });
             }
         }
     }

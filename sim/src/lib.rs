@@ -57,6 +57,7 @@
 //! a fixed hasher, so the same inputs in the same order give bit-identical worlds.
 
 mod body;
+pub mod box_grid;
 mod cluster_sim;
 mod contacts;
 pub mod coupling;
