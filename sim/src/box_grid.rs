@@ -6,8 +6,35 @@
 //! cell of that point, so no overlapping box is missed; the caller tests the candidates
 //! exactly, and gets the same answer as testing all of them. Boxes spanning more than
 //! [`MAX_CELLS`] cells (a fast body's sweep, an unbounded region) are kept in a list every
-//! query looks at. Entries live in one sorted vector that is cleared and refilled, so a grid
-//! rebuilt every tick allocates nothing once it has grown to its size.
+//! query looks at. Entries live in one sorted vector, with a map from each cell to its run of
+//! entries; both are cleared and refilled, so a grid rebuilt every tick allocates nothing once
+//! it has grown to its size.
+
+use std::collections::HashMap;
+use std::hash::BuildHasherDefault;
+
+/// Hashes a cell key (a `u64`) with one multiply; fixed, so runs are repeatable.
+#[derive(Debug, Default, Clone, Copy)]
+struct CellHasher(u64);
+
+impl std::hash::Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write_u64(&mut self, key: u64) {
+        let mixed = (self.0 ^ key).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        self.0 = mixed ^ (mixed >> 29);
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+}
 
 /// Cells a box may span before it is kept aside and looked at by every query.
 pub const MAX_CELLS: u64 = 64;
@@ -27,6 +54,8 @@ pub struct BoxGrid {
     cell: f32,
     /// (cell key, box) pairs, sorted by key.
     entries: Vec<(u64, u32)>,
+    /// Where each cell's run of `entries` starts and ends.
+    runs: HashMap<u64, (u32, u32), BuildHasherDefault<CellHasher>>,
     /// Boxes spanning too many cells.
     large: Vec<u32>,
 }
@@ -41,6 +70,7 @@ impl BoxGrid {
                 1.0
             },
             entries: Vec::new(),
+            runs: HashMap::default(),
             large: Vec::new(),
         }
     }
@@ -48,6 +78,7 @@ impl BoxGrid {
     /// Forgets every box, keeping the memory.
     pub fn clear(&mut self) {
         self.entries.clear();
+        self.runs.clear();
         self.large.clear();
     }
 
@@ -100,6 +131,13 @@ impl BoxGrid {
     /// Sorts what was inserted, for queries.
     pub fn seal(&mut self) {
         self.entries.sort_unstable();
+        self.runs.clear();
+        let mut start = 0;
+        for pair in self.entries.chunk_by(|a, b| a.0 == b.0) {
+            let end = start + pair.len();
+            self.runs.insert(pair[0].0, (start as u32, end as u32));
+            start = end;
+        }
     }
 
     /// Calls `visit` with every box that may overlap `min`..`max` (some more than once), until
@@ -119,12 +157,10 @@ impl BoxGrid {
         for x in lo[0]..=hi[0] {
             for y in lo[1]..=hi[1] {
                 for z in lo[2]..=hi[2] {
-                    let key = Self::key([x, y, z]);
-                    let start = self.entries.partition_point(|&(k, _)| k < key);
-                    for &(k, i) in &self.entries[start..] {
-                        if k != key {
-                            break;
-                        }
+                    let Some(&(start, end)) = self.runs.get(&Self::key([x, y, z])) else {
+                        continue;
+                    };
+                    for &(_, i) in &self.entries[start as usize..end as usize] {
                         if visit(i) {
                             return true;
                         }
