@@ -103,9 +103,14 @@ impl ClusterSim {
         self.entities.contains_key(&id)
     }
 
-    /// What the world knows of an entity.
+    /// What the world knows of an entity. Tries the entry after the last one posed before
+    /// hashing, as [`Self::apply_state`] does: reconciling a frame reads each proxy's entry
+    /// just before posing it, in the order they were spawned.
     pub fn info(&self, id: EntityId) -> Option<&EntityInfo> {
-        self.entities.get(&id).map(|e| &e.info)
+        match self.entities.get_index(self.next_index) {
+            Some((key, entry)) if *key == id => Some(&entry.info),
+            _ => self.entities.get(&id).map(|e| &e.info),
+        }
     }
 
     /// Every entity in the world, in the order they were added (a despawn moves the last one

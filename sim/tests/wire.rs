@@ -1,9 +1,9 @@
 //! The wire format: round trips, and untrusted bytes that must never panic.
 
 use seam_sim::wire::{
-    self, BodySpec, ClusterId, ContactReport, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp,
-    ReplicationFrame, ReplicationView, RoutedOp, SeamImpulseReport, Shape, StateEncoding,
-    WIRE_VERSION, WireError,
+    self, BodySpec, ClusterId, ContactReport, DeltaBase, EntityId, EntityState, PhysicsEventsFrame,
+    PhysicsOp, ReplicationEncoder, ReplicationFrame, ReplicationView, RoutedOp, SeamImpulseReport,
+    Shape, StateEncoding, WIRE_VERSION, WireError,
 };
 
 const ENCODINGS: [StateEncoding; 2] = [StateEncoding::Exact, StateEncoding::Quantized];
@@ -330,4 +330,61 @@ fn max_encoded_len_bounds_every_frame() {
     }
     frame.states.clear();
     assert!(frame.encoded_len(StateEncoding::Exact).expect("encodes") <= frame.max_encoded_len());
+}
+
+/// A delta frame: the states it lists, and its keyframe's tick, size and unchanged bits, read
+/// back as written; every truncation of it is an error; a bitmap too short for the keyframe is
+/// refused when encoding.
+#[test]
+fn delta_frames_carry_their_keyframe_and_unchanged_bits() {
+    let frame = ReplicationFrame {
+        states: (0..3).map(state).collect(),
+        ..replication()
+    };
+    // A keyframe of 20 states, of which 0, 2, 9 and 19 are unchanged.
+    let unchanged = [0b0000_0101u8, 0b0000_0010, 0b0000_1000];
+    let base = DeltaBase {
+        key_tick: 30,
+        key_states: 20,
+        unchanged: &unchanged,
+    };
+    for encoding in ENCODINGS {
+        let mut encoder = ReplicationEncoder::default();
+        let len = encoder
+            .prepare_delta(&frame, encoding, base)
+            .expect("prepares");
+        let mut bytes = vec![0; len];
+        assert_eq!(encoder.write(&frame, &mut bytes), Ok(len));
+        let view = ReplicationView::parse(&bytes).expect("parses");
+        let delta = view.delta().expect("a delta frame");
+        assert_eq!((delta.key_tick, delta.key_states), (30, 20));
+        let marked: Vec<usize> = (0..24).filter(|&j| delta.is_unchanged(j)).collect();
+        assert_eq!(marked, vec![0, 2, 9, 19]);
+        assert_eq!(delta.unchanged_count(), 4);
+        assert_eq!(view.len(), 3);
+        assert_eq!(view.id(2), Some(frame.states[2].id));
+        for cut in 0..bytes.len() {
+            assert!(
+                ReplicationView::parse(&bytes[..cut]).is_err(),
+                "cut at {cut}"
+            );
+        }
+        // A whole frame from the same encoder is not a delta frame.
+        let whole = frame.encode(encoding).expect("encodes");
+        assert!(
+            ReplicationView::parse(&whole)
+                .expect("parses")
+                .delta()
+                .is_none()
+        );
+    }
+    let short = DeltaBase {
+        unchanged: &unchanged[..2],
+        ..base
+    };
+    assert!(
+        ReplicationEncoder::default()
+            .prepare_delta(&frame, StateEncoding::Exact, short)
+            .is_err()
+    );
 }

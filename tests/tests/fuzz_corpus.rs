@@ -35,6 +35,23 @@ fn replication_frame_inputs_pass() {
     replay("replication_frame", checks::replication_frame);
 }
 
+/// The hand-made seeds start the fuzzer on both kinds of replication frame.
+#[test]
+fn the_seeds_hold_whole_and_delta_frames() {
+    let dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds/replication_frame");
+    let kinds: Vec<bool> = std::fs::read_dir(dir)
+        .expect("the seeds")
+        .filter_map(|entry| std::fs::read(entry.ok()?.path()).ok())
+        .filter_map(|bytes| {
+            seam_sim::wire::ReplicationView::parse(&bytes)
+                .ok()
+                .map(|view| view.delta().is_some())
+        })
+        .collect();
+    assert!(kinds.contains(&true) && kinds.contains(&false), "{kinds:?}");
+}
+
 #[test]
 fn events_frame_inputs_pass() {
     replay("events_frame", checks::events_frame);
