@@ -163,7 +163,7 @@
 //! neighbour, marked `leaving`. They take it as [`NeighbourStatus::Left`] (one tick later, so
 //! its last replication frame is reconciled first): never taken for dead, nothing adopted from
 //! it — what it owns leaves with it — and hand-offs to it that it had not taken come back
-//! (`handoffs_reclaimed`). `seam node` leaves after its last tick, so a pod still ticking
+//! (`handoffs_taken_back`). `seam node` leaves after its last tick, so a pod still ticking
 //! behind the schedule does not adopt what its finished neighbours end the run owning.
 //!
 //! # Adoption: no entity lost

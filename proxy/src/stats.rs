@@ -111,6 +111,10 @@ pub struct ClusterStats {
     pub neighbours_lost: u64,
     /// Neighbours that said they were stopping on purpose (see `Cluster::leave`).
     pub neighbours_left: u64,
+    /// Hand-offs to a neighbour that left before taking them, taken back (apart from
+    /// `handoffs_reclaimed`, which counts those taken back from a neighbour taken for dead and
+    /// returned to it when it is back).
+    pub handoffs_taken_back: u64,
     /// Neighbours heard from again after being taken for dead.
     pub neighbours_rejoined: u64,
     /// Entities of a neighbour taken for dead that this cluster adopted (see

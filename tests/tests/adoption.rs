@@ -7,7 +7,7 @@
 
 use seam_proxy::{AuthorityMode, Cluster, ClusterConfig, NeighbourStatus, Region, WorldCluster};
 use seam_sim::BodyRole;
-use seam_sim::wire::{ClusterId, EntityId};
+use seam_sim::wire::{ClusterId, EntityId, EntityState};
 use seam_tests::{HandClock, ball_at};
 
 const TIMEOUT_TICKS: u64 = 10;
@@ -62,27 +62,18 @@ fn tick(clusters: &mut [Cluster], clock: &mut HandClock, which: &[usize]) {
     }
 }
 
-/// Which of `among` own `id` (as a simulated body).
-fn owners_among(clusters: &[Cluster], among: &[usize], id: EntityId) -> Vec<usize> {
-    among
-        .iter()
-        .copied()
-        .filter(|&i| {
-            clusters[i].sim().info(id).is_some_and(|info| {
-                info.owner == clusters[i].id() && info.role == BodyRole::Dynamic
-            })
-        })
-        .collect()
+struct Setup {
+    clusters: [Cluster; 3],
+    clock: HandClock,
+    /// Middle's, at x = -4, 0 and 4.
+    balls: Vec<EntityState>,
+    /// West's, at x = -12, for west to hand to middle.
+    handed: EntityState,
 }
 
-/// Which clusters own `id`.
-fn owners(clusters: &[Cluster], id: EntityId) -> Vec<usize> {
-    owners_among(clusters, &[0, 1, 2], id)
-}
-
-#[test]
-fn a_dead_clusters_entities_are_adopted_once_and_returned() {
-    let url = format!("local?prefix=seam_adopt_{}_", std::process::id());
+/// The row, its balls spawned and three ticks run.
+fn setup(test: &str) -> Setup {
+    let url = format!("local?prefix=seam_{test}_{}_", std::process::id());
     let mut clusters = row(&url);
     let mut clock = HandClock::new(clusters[0].config().dt);
     let (west, middle, east) = (0, 1, 2);
@@ -103,6 +94,41 @@ fn a_dead_clusters_entities_are_adopted_once_and_returned() {
     for _ in 0..3 {
         tick(&mut clusters, &mut clock, &[west, middle, east]);
     }
+    Setup {
+        clusters,
+        clock,
+        balls,
+        handed,
+    }
+}
+
+/// Which of `among` own `id` (as a simulated body).
+fn owners_among(clusters: &[Cluster], among: &[usize], id: EntityId) -> Vec<usize> {
+    among
+        .iter()
+        .copied()
+        .filter(|&i| {
+            clusters[i].sim().info(id).is_some_and(|info| {
+                info.owner == clusters[i].id() && info.role == BodyRole::Dynamic
+            })
+        })
+        .collect()
+}
+
+/// Which clusters own `id`.
+fn owners(clusters: &[Cluster], id: EntityId) -> Vec<usize> {
+    owners_among(clusters, &[0, 1, 2], id)
+}
+
+#[test]
+fn a_dead_clusters_entities_are_adopted_once_and_returned() {
+    let Setup {
+        mut clusters,
+        mut clock,
+        balls,
+        handed,
+    } = setup("adopt");
+    let (west, middle, east) = (0, 1, 2);
     // West hands a ball to middle, which dies before it reads the hand-off.
     let middle_id = clusters[middle].id();
     clusters[west]
@@ -175,27 +201,14 @@ fn a_dead_clusters_entities_are_adopted_once_and_returned() {
 
 #[test]
 fn a_cluster_that_leaves_is_not_taken_for_dead_and_keeps_what_it_owns() {
-    let url = format!("local?prefix=seam_leave_{}_", std::process::id());
-    let mut clusters = row(&url);
-    let mut clock = HandClock::new(clusters[0].config().dt);
+    let Setup {
+        mut clusters,
+        mut clock,
+        balls,
+        handed,
+    } = setup("leave");
     let (west, middle, east) = (0, 1, 2);
     let middle_id = clusters[middle].id();
-    let balls: Vec<_> = [-4.0, 0.0, 4.0]
-        .iter()
-        .map(|&x| ball_at(x, middle_id))
-        .collect();
-    for ball in &balls {
-        clusters[middle]
-            .spawn_owned(ball, BodyRole::Dynamic)
-            .expect("spawn");
-    }
-    let handed = ball_at(-12.0, clusters[west].id());
-    clusters[west]
-        .spawn_owned(&handed, BodyRole::Dynamic)
-        .expect("spawn");
-    for _ in 0..3 {
-        tick(&mut clusters, &mut clock, &[west, middle, east]);
-    }
     // West hands a ball to middle, which stops on purpose before it reads the hand-off, and
     // says so; west and east go on far past the timeout.
     clusters[west]
@@ -231,7 +244,7 @@ fn a_cluster_that_leaves_is_not_taken_for_dead_and_keeps_what_it_owns() {
         vec![west],
         "the hand-off middle never took is back with west"
     );
-    assert_eq!(clusters[west].stats().handoffs_reclaimed, 1);
+    assert_eq!(clusters[west].stats().handoffs_taken_back, 1);
     assert!(
         clusters[west]
             .transfer_authority(handed.id, middle_id)

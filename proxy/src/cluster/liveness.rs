@@ -239,7 +239,7 @@ impl Cluster {
             if self.sim.set_role(back.id, owner_role(&back)).is_ok()
                 && self.sim.apply_state(&back).is_ok()
             {
-                self.stats.handoffs_reclaimed += 1;
+                self.stats.handoffs_taken_back += 1;
             }
         }
         tracing::info!(
