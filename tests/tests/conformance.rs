@@ -20,7 +20,8 @@ seam_tests::backend_tests!(
     writer_errors,
     receive_waits_without_spinning,
     wakes_on_publish_from_another_thread,
-    advertise_prepares_publishing]
+    advertise_prepares_publishing,
+    forward_keeps_the_envelope]
 );
 
 fn round_trip(ctx: &TestContext) {
@@ -448,4 +449,59 @@ fn advertise_prepares_publishing(ctx: &TestContext) {
         Err(PublishError::Channel(ChannelError::Empty)),
         "a bad channel name is refused"
     );
+}
+
+/// A message passed on with `forward` reaches its receiver under its first publisher's identity
+/// and number: the receiver counts a gap in the original numbering as a loss, and the
+/// forwarding transport's own numbering on the channel is untouched.
+fn forward_keeps_the_envelope(ctx: &TestContext) {
+    let (mut origin, mut first_hop, mut bridge, mut last_hop) =
+        (ctx.open(), ctx.open(), ctx.open(), ctx.open());
+    let (channel, onward) = (ctx.channel("forward_in"), ctx.channel("forward_out"));
+    first_hop.subscribe(&channel).expect("subscribe");
+    last_hop.subscribe(&onward).expect("subscribe");
+    let mut received = Vec::new();
+    for payload in [&b"one"[..], b"two", b"three"] {
+        origin.publish(&channel, payload).expect("publish");
+        received.push(receive(first_hop.as_mut(), PATIENCE).expect("the message arrives"));
+    }
+    assert_eq!(
+        received.iter().map(|m| m.origin.seq).collect::<Vec<_>>(),
+        [1, 2, 3]
+    );
+    assert!(received.iter().all(|m| m.origin
+        == seam_transport::Origin {
+            publisher: received[0].origin.publisher,
+            seq: m.origin.seq
+        }));
+    // Pass on the first and the third: the second is lost on the way.
+    for message in [&received[0], &received[2]] {
+        assert_eq!(
+            bridge
+                .forward(&onward, message.origin, &message.payload)
+                .expect("forward"),
+            1
+        );
+    }
+    let first = receive(last_hop.as_mut(), PATIENCE).expect("the forwarded message arrives");
+    let third = receive(last_hop.as_mut(), PATIENCE).expect("the forwarded message arrives");
+    assert_eq!(
+        (first.payload.as_slice(), third.payload.as_slice()),
+        (&b"one"[..], &b"three"[..])
+    );
+    assert_eq!(
+        first.origin, received[0].origin,
+        "the original envelope arrives"
+    );
+    assert_eq!(third.origin, received[2].origin);
+    assert_eq!(
+        last_hop.stats().overflow_drops,
+        1,
+        "the receiver counts the message lost between the hops"
+    );
+    // The bridge's own numbering on the channel starts at 1, whatever it forwarded.
+    bridge.publish(&onward, b"own").expect("publish");
+    let own = receive(last_hop.as_mut(), PATIENCE).expect("arrives");
+    assert_eq!(own.origin.seq, 1);
+    assert_ne!(own.origin.publisher, first.origin.publisher);
 }

@@ -51,6 +51,15 @@ impl Transport for Dropping {
         self.inner.publish(channel, &self.scratch[..len])
     }
 
+    fn forward(
+        &mut self,
+        channel: &str,
+        origin: seam_transport::Origin,
+        payload: &[u8],
+    ) -> Result<usize, PublishError> {
+        self.inner.forward(channel, origin, payload)
+    }
+
     fn subscribe(&mut self, channel: &str) -> Result<(), SubscribeError> {
         self.inner.subscribe(channel)
     }

@@ -47,6 +47,19 @@ impl Envelope {
         }
     }
 
+    /// The envelope of a message passed on unchanged: `origin`'s publisher and number.
+    pub fn forwarded(origin: crate::Origin, len: usize) -> Self {
+        Self::new(origin.publisher, origin.seq, len)
+    }
+
+    /// The publisher and number this envelope carries.
+    pub fn origin(&self) -> crate::Origin {
+        crate::Origin {
+            publisher: self.publisher,
+            seq: self.seq,
+        }
+    }
+
     /// Whether this header came from a seam publisher of this version.
     pub fn is_valid(&self) -> bool {
         self.magic == MAGIC && self.version == ENVELOPE_VERSION && self.seq != 0

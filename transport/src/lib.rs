@@ -41,7 +41,7 @@ pub use channel::{MAX_CHANNEL_LEN, validate_channel};
 pub use envelope::{ENVELOPE_VERSION, Envelope};
 pub use error::{ChannelError, OpenError, PublishError, ReceiveError, SubscribeError};
 pub use iceoryx::{IceoryxConfig, IceoryxTransport, LocalTransport, ShmTransport};
-pub use message::{Message, OwnedMessage};
+pub use message::{Message, Origin, OwnedMessage};
 pub use pattern::glob_match;
 pub use redis::{RedisConfig, RedisTransport, redact_url};
 pub use stats::Stats;

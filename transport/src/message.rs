@@ -11,6 +11,19 @@ pub struct Message<'a> {
     pub pattern: Option<&'a str>,
     /// The bytes the publisher wrote.
     pub payload: &'a [u8],
+    /// Who published it and its number on the channel, from its envelope.
+    pub origin: Origin,
+}
+
+/// The publisher and sequence number a message's envelope carries. A bridge that passes a
+/// message on keeps them ([`crate::Transport::forward`]), so the final receiver still counts
+/// gaps per original publisher.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Origin {
+    /// Random identity of the publishing transport.
+    pub publisher: u64,
+    /// The publisher's number for this message on its channel, from 1.
+    pub seq: u64,
 }
 
 impl Message<'_> {
@@ -20,6 +33,7 @@ impl Message<'_> {
             channel: self.channel.to_owned(),
             pattern: self.pattern.map(str::to_owned),
             payload: self.payload.to_vec(),
+            origin: self.origin,
         }
     }
 }
@@ -33,4 +47,6 @@ pub struct OwnedMessage {
     pub pattern: Option<String>,
     /// The bytes the publisher wrote.
     pub payload: Vec<u8>,
+    /// Who published it and its number on the channel.
+    pub origin: Origin,
 }

@@ -68,6 +68,17 @@ pub trait Transport {
         write: &mut dyn FnMut(&mut [u8]) -> Option<usize>,
     ) -> Result<usize, PublishError>;
 
+    /// Publishes a message received from another transport under its own envelope (`origin`:
+    /// its publisher and number), for a bridge between backends: receivers count gaps and tell
+    /// publishers apart as if it had come straight from its publisher. The transport's own
+    /// numbering on `channel` is not advanced. Returns how many subscribers it reached.
+    fn forward(
+        &mut self,
+        channel: &str,
+        origin: crate::Origin,
+        payload: &[u8],
+    ) -> Result<usize, PublishError>;
+
     /// Gets ready to publish on `channel` payloads of about `expected_payload` bytes, so the
     /// first publish costs no more than the next ones. On iceoryx2 this creates the channel's
     /// service and publisher now, with shared memory for `expected_payload` (capped at the

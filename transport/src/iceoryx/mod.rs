@@ -238,6 +238,7 @@ where
                 inlet.pattern.as_deref()
             },
             payload: &sample.payload()[..len],
+            origin: sample.user_header().origin(),
         })
     }
 
@@ -307,6 +308,21 @@ where
         let reached = self
             .outlet(channel, initial)?
             .send_copy(publisher_id, payload)?;
+        self.intake.stats.published += 1;
+        Ok(reached)
+    }
+
+    fn forward(
+        &mut self,
+        channel: &str,
+        origin: crate::Origin,
+        payload: &[u8],
+    ) -> Result<usize, PublishError> {
+        check_publish(channel, payload.len(), self.config.max_payload)?;
+        let initial = self.config.initial_payload;
+        let reached = self
+            .outlet(channel, initial)?
+            .send_forwarded(origin, payload)?;
         self.intake.stats.published += 1;
         Ok(reached)
     }

@@ -160,10 +160,33 @@ impl<S: Service> Outlet<S> {
         &mut self,
         publisher_id: u64,
         written: usize,
-        mut sample: SampleMut<S, [u8], Envelope>,
+        sample: SampleMut<S, [u8], Envelope>,
     ) -> Result<usize, PublishError> {
         self.seq += 1;
-        *sample.user_header_mut() = Envelope::new(publisher_id, self.seq, written);
+        self.send(Envelope::new(publisher_id, self.seq, written), sample)
+    }
+
+    /// Copies a message received elsewhere into a loaned sample under its own envelope, sends
+    /// it and wakes listeners; this outlet's numbering is not advanced.
+    pub(super) fn send_forwarded(
+        &mut self,
+        origin: crate::Origin,
+        payload: &[u8],
+    ) -> Result<usize, PublishError> {
+        let sample = self
+            .publisher
+            .loan_slice_uninit(payload.len())
+            .map_err(|e| self.unavailable(e.to_string()))?;
+        let sample = sample.write_from_slice(payload);
+        self.send(Envelope::forwarded(origin, payload.len()), sample)
+    }
+
+    fn send(
+        &mut self,
+        envelope: Envelope,
+        mut sample: SampleMut<S, [u8], Envelope>,
+    ) -> Result<usize, PublishError> {
+        *sample.user_header_mut() = envelope;
         let reached = sample.send().map_err(|e| self.unavailable(e.to_string()))?;
         // A failed wake-up (a listener's socket full) loses nothing: the sample is delivered and
         // that listener is already awake with wake-ups pending.

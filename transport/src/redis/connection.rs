@@ -174,6 +174,10 @@ impl RedisTransport {
                             pattern: pattern.map(|p| String::from_utf8_lossy(p).into_owned()),
                             payload: 0..wire.len(),
                             wire: wire.to_vec(),
+                            origin: crate::Origin {
+                                publisher: 0,
+                                seq: 0,
+                            },
                         };
                         self.early.push_back(early);
                     }

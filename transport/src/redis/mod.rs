@@ -109,6 +109,38 @@ impl RedisTransport {
     fn max_bulk(&self) -> usize {
         self.config.max_payload + Envelope::WIRE_LEN
     }
+
+    /// Writes `envelope` in front of the payload in `self.out` and publishes it.
+    fn send(&mut self, channel: &str, envelope: Envelope) -> Result<usize, PublishError> {
+        let head: &mut [u8; Envelope::WIRE_LEN] = (&mut self.out[..Envelope::WIRE_LEN])
+            .try_into()
+            .expect("the buffer starts with room for the envelope");
+        envelope.write_to(head);
+        let packed = redis::cmd("PUBLISH")
+            .arg(channel)
+            .arg(&self.out[..])
+            .get_packed_command();
+        let reached = match self
+            .publisher
+            .req_packed_command(&packed)
+            .and_then(|value| redis::from_redis_value::<usize>(value).map_err(Into::into))
+        {
+            Ok(reached) => reached,
+            Err(e) if self.config.reconnect && connection_lost(&e) => {
+                self.went_down();
+                self.intake.stats.dropped_while_down += 1;
+                return Ok(0);
+            }
+            Err(e) => {
+                return Err(PublishError::Disconnected {
+                    addr: self.addr.clone(),
+                    reason: e.to_string(),
+                });
+            }
+        };
+        self.intake.stats.published += 1;
+        Ok(reached)
+    }
 }
 
 impl Transport for RedisTransport {
@@ -136,34 +168,24 @@ impl Transport for RedisTransport {
         }
         self.out.truncate(Envelope::WIRE_LEN + written);
         let seq = self.seqs.next(channel);
-        let head: &mut [u8; Envelope::WIRE_LEN] = (&mut self.out[..Envelope::WIRE_LEN])
-            .try_into()
-            .expect("the buffer starts with room for the envelope");
-        Envelope::new(self.publisher_id, seq, written).write_to(head);
-        let packed = redis::cmd("PUBLISH")
-            .arg(channel)
-            .arg(&self.out[..])
-            .get_packed_command();
-        let reached = match self
-            .publisher
-            .req_packed_command(&packed)
-            .and_then(|value| redis::from_redis_value::<usize>(value).map_err(Into::into))
-        {
-            Ok(reached) => reached,
-            Err(e) if self.config.reconnect && connection_lost(&e) => {
-                self.went_down();
-                self.intake.stats.dropped_while_down += 1;
-                return Ok(0);
-            }
-            Err(e) => {
-                return Err(PublishError::Disconnected {
-                    addr: self.addr.clone(),
-                    reason: e.to_string(),
-                });
-            }
-        };
-        self.intake.stats.published += 1;
-        Ok(reached)
+        self.send(channel, Envelope::new(self.publisher_id, seq, written))
+    }
+
+    fn forward(
+        &mut self,
+        channel: &str,
+        origin: crate::Origin,
+        payload: &[u8],
+    ) -> Result<usize, PublishError> {
+        check_publish(channel, payload.len(), self.config.max_payload)?;
+        if self.config.reconnect && !self.up() {
+            self.intake.stats.dropped_while_down += 1;
+            return Ok(0);
+        }
+        self.out.clear();
+        self.out.resize(Envelope::WIRE_LEN, 0);
+        self.out.extend_from_slice(payload);
+        self.send(channel, Envelope::forwarded(origin, payload.len()))
     }
 
     fn subscribe(&mut self, channel: &str) -> Result<(), SubscribeError> {

@@ -3,9 +3,9 @@
 
 use std::ops::Range;
 
-use crate::Message;
 use crate::envelope::{Envelope, Intake};
 use crate::error::ReceiveError;
+use crate::{Message, Origin};
 
 use super::RedisTransport;
 use super::resp::{self, Frame, Item, RespError};
@@ -15,6 +15,7 @@ pub(super) struct EarlyMessage {
     pub(super) pattern: Option<String>,
     pub(super) payload: Range<usize>,
     pub(super) wire: Vec<u8>,
+    pub(super) origin: Origin,
 }
 
 /// Where the last returned message lives.
@@ -23,6 +24,7 @@ pub(super) enum Current {
         channel: Range<usize>,
         pattern: Option<Range<usize>>,
         payload: Range<usize>,
+        origin: Origin,
     },
     Early(EarlyMessage),
 }
@@ -79,12 +81,16 @@ pub(super) fn classify<'a>(frame: &Frame<'a>) -> Reply<'a> {
 }
 
 /// Checks a message's envelope and counts it; returns the payload range inside `wire` if valid.
-pub(super) fn accept(intake: &mut Intake, channel: &[u8], wire: &[u8]) -> Option<Range<usize>> {
+pub(super) fn accept(
+    intake: &mut Intake,
+    channel: &[u8],
+    wire: &[u8],
+) -> Option<(Range<usize>, Origin)> {
     match std::str::from_utf8(channel).ok().zip(Envelope::split(wire)) {
         Some((channel, (envelope, payload))) => {
             let key = intake.channel_key(channel);
             intake.accept(key, &envelope);
-            Some(range_in(wire, payload))
+            Some((range_in(wire, payload), envelope.origin()))
         }
         None => {
             intake.malformed();
@@ -117,8 +123,11 @@ impl RedisTransport {
             return Ok(false);
         }
         while let Some(mut early) = self.early.pop_front() {
-            if let Some(payload) = accept(&mut self.intake, early.channel.as_bytes(), &early.wire) {
+            if let Some((payload, origin)) =
+                accept(&mut self.intake, early.channel.as_bytes(), &early.wire)
+            {
                 early.payload = payload;
+                early.origin = origin;
                 self.current = Some(Current::Early(early));
                 return Ok(true);
             }
@@ -172,12 +181,13 @@ impl RedisTransport {
                     let buf = &self.socket.buf;
                     let payload =
                         accept(&mut self.intake, &buf[channel.clone()], &buf[wire.clone()]);
-                    if let Some(payload) = payload {
+                    if let Some((payload, origin)) = payload {
                         let payload = wire.start + payload.start..wire.start + payload.end;
                         self.current = Some(Current::Buffered {
                             channel,
                             pattern,
                             payload,
+                            origin,
                         });
                         return Ok(true);
                     }
@@ -208,18 +218,21 @@ impl RedisTransport {
                 channel,
                 pattern,
                 payload,
+                origin,
             } => {
                 let buf = &self.socket.buf;
                 Some(Message {
                     channel: text(&buf[channel.clone()]),
                     pattern: pattern.clone().map(|p| text(&buf[p])),
                     payload: &buf[payload.clone()],
+                    origin: *origin,
                 })
             }
             Current::Early(early) => Some(Message {
                 channel: &early.channel,
                 pattern: early.pattern.as_deref(),
                 payload: &early.wire[early.payload.clone()],
+                origin: early.origin,
             }),
         }
     }
