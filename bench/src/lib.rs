@@ -32,6 +32,7 @@
 //!   proxies), `bench_replication` (op batches; 10 000 states end to end against the Rapier floor).
 
 pub mod accuracy;
+pub mod bridge;
 pub mod chaos;
 pub mod console;
 pub mod latency;

@@ -233,6 +233,7 @@
 
 mod adoption;
 mod authority;
+mod bridge;
 mod channels;
 mod clock;
 mod cluster;
@@ -252,6 +253,7 @@ mod stats;
 pub use authority::{
     AuthorityMode, AuthorityPolicy, AuthorityView, NeighbourView, Spatial, SpatialSettings,
 };
+pub use bridge::{Bridge, BridgeRoutes, DirectionCounters, DirectionStats};
 pub use channels::{physics_events, replication};
 pub use clock::{OpTiming, monotonic_ns};
 pub use cluster::{Cluster, DRAIN_S, MAX_OP_TIMINGS, NeighbourStatus};

@@ -279,6 +279,7 @@ fn redis_user_and_password_in_the_url_work() {
             node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
             start_delay: Duration::from_millis(300),
             in_phase: false,
+            hosts: seam_bench::run::HostsPlan::default(),
         };
         // While they run, the process list shows each pod's command line: no password there.
         let mut pods_seen = 0;

@@ -38,6 +38,7 @@ fn plan(scene_name: &str, transport: String, rate: f64, ticks: u64) -> RunPlan {
         node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
         start_delay: Duration::from_millis(500),
         in_phase: false,
+        hosts: seam_bench::run::HostsPlan::default(),
     }
 }
 

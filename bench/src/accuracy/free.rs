@@ -60,6 +60,7 @@ pub fn run_free_trial(
         node_command: free.node_command.clone(),
         start_delay: Duration::from_millis(500),
         in_phase: false,
+        hosts: crate::run::HostsPlan::default(),
     };
     let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})?;
 

@@ -170,6 +170,7 @@ pub fn run(
         node_command: plan.node_command.clone(),
         start_delay: Duration::from_millis(1500),
         in_phase: false,
+        hosts: crate::run::HostsPlan::default(),
     };
     let panics = Arc::new(AtomicU64::new(0));
     let (lines, incoming) = mpsc::channel::<PodLine>();
@@ -193,6 +194,7 @@ pub fn run(
                 ticks,
                 rejoin,
                 panics: &panics,
+                transport: None,
             },
             &lines,
         )?;

@@ -11,6 +11,7 @@
 //! routed-op stages. SIGINT or SIGTERM is passed on to the pods, which stop after their current
 //! tick and still report.
 
+mod hosts;
 pub mod ownership;
 mod report;
 
@@ -27,6 +28,7 @@ use std::time::{Duration, Instant};
 use seam_proxy::monotonic_ns;
 
 use crate::node::{AuthorityArgs, NodeLine, NodeProgress, NodeReport, ProxyModeArg};
+pub use hosts::{HostsPlan, HostsSummary, SIMULATED_AS};
 pub use report::{PodSummary, RunReport, markdown, table};
 
 /// What `seam run` runs.
@@ -61,6 +63,8 @@ pub struct RunPlan {
     pub start_delay: Duration,
     /// Tick all pods at the same moment instead of staggering them over the period.
     pub in_phase: bool,
+    /// Hosts the pods run on (one unless the scene or `--hosts` says more).
+    pub hosts: HostsPlan,
 }
 
 impl RunPlan {
@@ -88,6 +92,8 @@ pub struct PodLaunch<'a> {
     pub rejoin: bool,
     /// Counts the panic messages on its stderr.
     pub panics: &'a Arc<AtomicU64>,
+    /// Its transport URL when not the plan's (a pod on one of several hosts).
+    pub transport: Option<&'a str>,
 }
 
 /// A line a pod wrote, tagged with its index, or why it could not be read.
@@ -113,7 +119,10 @@ pub fn spawn_pod(
         .args(["--cluster", launch.cluster])
         // Through the environment, not the command line, which every user of the host can
         // read: the URL may hold a password.
-        .env("SEAM_TRANSPORT", &plan.transport)
+        .env(
+            "SEAM_TRANSPORT",
+            launch.transport.unwrap_or(&plan.transport),
+        )
         .args(["--rate", &plan.rate.to_string()])
         .args(["--ticks", &launch.ticks.to_string()])
         .args(["--run-id", &plan.run_id])
@@ -244,7 +253,13 @@ pub fn run_pods(
     let panics = Arc::new(AtomicU64::new(0));
     let mut forwarders = Vec::new();
     let pods_n = scene.clusters.len() as u64;
+    let bridges = hosts::Bridges::start(plan, &scene)?;
+    let start_at = start_at.max(monotonic_ns() + plan.start_delay.as_nanos() as u64);
     for (index, cluster) in scene.clusters.iter().enumerate() {
+        let url = match &bridges {
+            Some(bridges) => Some(bridges.pod_url(plan, index)?),
+            None => None,
+        };
         let (child, forwarder) = spawn_pod(
             plan,
             &PodLaunch {
@@ -254,6 +269,7 @@ pub fn run_pods(
                 ticks,
                 rejoin: false,
                 panics: &panics,
+                transport: url.as_deref(),
             },
             &lines,
         )?;
@@ -334,16 +350,24 @@ pub fn run_pods(
             None => {}
         }
     }
+    let hosts = match bridges.map(hosts::Bridges::finish).transpose() {
+        Ok(hosts) => hosts,
+        Err(e) => {
+            problems.push(e);
+            None
+        }
+    };
     if !problems.is_empty() {
         return Err(problems.join("\n"));
     }
-    let report = RunReport::new(
+    let mut report = RunReport::new(
         &scene,
         seam_transport::redact_url(&plan.transport),
         plan,
         wall_s,
         &complete,
     );
+    report.hosts = hosts;
     Ok((report, complete))
 }
 

@@ -90,6 +90,9 @@ pub struct RunReport {
     pub ops: OpStagesSummary,
     /// Whether every entity ended with exactly one owner.
     pub ownership: Ownership,
+    /// The hosts of a run on several, and their bridges.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hosts: Option<super::HostsSummary>,
 }
 
 impl RunReport {
@@ -144,6 +147,7 @@ impl RunReport {
             totals,
             ops: all_ops.summary(),
             ownership: super::ownership::check(scene, &plan.run_id, reports),
+            hosts: None,
         }
     }
 }
@@ -292,6 +296,9 @@ pub fn table(report: &RunReport) -> String {
             t.dropped_while_down
         );
     }
+    if let Some(hosts) = &report.hosts {
+        out += &hosts_lines(hosts);
+    }
     let o = &report.ownership;
     out += &format!(
         "ownership: {} entities expected, {} owned by exactly one pod, {} lost, {} owned twice{}\n",
@@ -383,10 +390,62 @@ pub fn markdown(report: &RunReport) -> String {
         out += "\n";
         out += &stages.render();
     }
+    if let Some(hosts) = &report.hosts {
+        let mut bridges = Table::new(&[
+            ("host", Left),
+            ("pods", Left),
+            ("messages out", Right),
+            ("MB out", Right),
+            ("messages in", Right),
+            ("MB in", Right),
+            ("refused", Right),
+            ("bridge CPU % of a core", Right),
+        ]);
+        for bridge in &hosts.bridges {
+            let pods: Vec<&str> = report
+                .pods
+                .iter()
+                .zip(&hosts.layout)
+                .filter(|(_, h)| **h == bridge.host)
+                .map(|(p, _)| p.cluster.as_str())
+                .collect();
+            bridges.row(vec![
+                bridge.host.clone(),
+                pods.join(", "),
+                grouped(bridge.out.messages),
+                format!("{:.1}", bridge.out.bytes as f64 / 1e6),
+                grouped(bridge.into.messages),
+                format!("{:.1}", bridge.into.bytes as f64 / 1e6),
+                grouped(bridge.out.refused + bridge.into.refused),
+                format!("{:.1}", 100.0 * bridge.core_share()),
+            ]);
+        }
+        out += &format!("\nHosts simulated as {}.\n\n", hosts.simulated_as);
+        out += &bridges.render();
+    }
     out
 }
 
 /// `shm`, `redis` or `local` for a transport URL.
 fn transport_name(url: &str) -> String {
     url.split(['?', ':']).next().unwrap_or(url).to_owned()
+}
+
+/// The hosts of a run on several and what each bridge carried.
+fn hosts_lines(hosts: &super::HostsSummary) -> String {
+    let mut out = format!("hosts, simulated as {}:\n", hosts.simulated_as);
+    for bridge in &hosts.bridges {
+        out += &format!(
+            "  bridge of host {}: {} messages ({:.1} MB) out to Redis, {} ({:.1} MB) in, {} refused; \
+             {:.1} % of a core\n",
+            bridge.host,
+            bridge.out.messages,
+            bridge.out.bytes as f64 / 1e6,
+            bridge.into.messages,
+            bridge.into.bytes as f64 / 1e6,
+            bridge.out.refused + bridge.into.refused,
+            100.0 * bridge.core_share()
+        );
+    }
+    out
 }

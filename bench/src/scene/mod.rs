@@ -49,7 +49,7 @@
 
 mod model;
 
-pub use model::{Cluster, Entity, Event, Grid, Region, Role, Scene, SceneShape, Vec3};
+pub use model::{Cluster, Entity, Event, Grid, Region, Role, Scene, SceneShape, Vec3, host_name};
 
 use std::path::Path;
 

@@ -61,6 +61,10 @@ pub struct Cluster {
     /// How far beyond the region neighbour entities are still modelled, metres.
     #[serde(default)]
     pub spread: f32,
+    /// The host its pod runs on (`seam run` lays out several hosts when clusters name them;
+    /// see [`Scene::host_layout`]). Unset: one host, or the layout of `--hosts N`.
+    #[serde(default)]
+    pub host: Option<String>,
 }
 
 /// An axis-aligned box.
@@ -367,6 +371,62 @@ impl Scene {
         Ok(self)
     }
 
+    /// The host of each cluster, in the scene's order. Clusters that name a `host` keep it
+    /// (then every cluster must name one, and `hosts`, if given, must match their count);
+    /// otherwise `hosts` (default 1) simulated hosts named `a`, `b`, … each take a run of
+    /// neighbouring clusters in the scene's order, as evenly as they divide.
+    pub fn host_layout(&self, hosts: Option<u32>) -> Result<Vec<String>, String> {
+        let named: Vec<&str> = self
+            .clusters
+            .iter()
+            .filter_map(|c| c.host.as_deref())
+            .collect();
+        if !named.is_empty() {
+            if named.len() != self.clusters.len() {
+                return Err(format!(
+                    "scene {:?}: {} of {} clusters name a `host`; name one for every cluster or for none",
+                    self.name,
+                    named.len(),
+                    self.clusters.len()
+                ));
+            }
+            if let Some(bad) = named.iter().find(|h| {
+                h.is_empty()
+                    || h.len() > 16
+                    || !h
+                        .bytes()
+                        .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_')
+            }) {
+                return Err(format!(
+                    "scene {:?}: host {bad:?}: a host name is 1 to 16 of [A-Za-z0-9_-] (it names the host's shared memory)",
+                    self.name
+                ));
+            }
+            let distinct: std::collections::BTreeSet<&str> = named.iter().copied().collect();
+            if let Some(n) = hosts
+                && n as usize != distinct.len()
+            {
+                return Err(format!(
+                    "--hosts {n}: scene {:?} lays its clusters out on {} hosts itself",
+                    self.name,
+                    distinct.len()
+                ));
+            }
+            return Ok(named.iter().map(|h| (*h).to_owned()).collect());
+        }
+        let n = hosts.unwrap_or(1) as usize;
+        if n == 0 || n > self.clusters.len() {
+            return Err(format!(
+                "--hosts {n}: scene {:?} has {} clusters; give 1 to {} hosts",
+                self.name,
+                self.clusters.len(),
+                self.clusters.len()
+            ));
+        }
+        let count = self.clusters.len();
+        Ok((0..count).map(|i| host_name(i * n / count)).collect())
+    }
+
     /// Checks what a run relies on; on failure, the byte offset to report and the message.
     pub(super) fn check(&self, text: &str) -> Result<(), (usize, String)> {
         let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
@@ -557,5 +617,13 @@ impl Scene {
             }
         }
         Ok(())
+    }
+}
+
+/// The name of simulated host number `index`: `a`, `b`, … `z`, then `h26`, `h27`, ….
+pub fn host_name(index: usize) -> String {
+    match u8::try_from(index) {
+        Ok(i) if i < 26 => char::from(b'a' + i).to_string(),
+        _ => format!("h{index}"),
     }
 }

@@ -132,6 +132,61 @@ grid = { count = [3, 1, 3], spacing = [1, 0, 1] }
 }
 
 #[test]
+fn hosts_are_laid_out_or_named() {
+    let grid = load(&scene_file("grid.toml")).expect("grid loads");
+    assert_eq!(grid.host_layout(None).expect("one host"), ["a"; 4]);
+    assert_eq!(
+        grid.host_layout(Some(2)).expect("two hosts"),
+        ["a", "a", "b", "b"]
+    );
+    assert_eq!(
+        grid.host_layout(Some(3)).expect("three hosts"),
+        ["a", "a", "b", "c"]
+    );
+    assert!(grid.host_layout(Some(0)).is_err());
+    assert!(
+        grid.host_layout(Some(5)).is_err(),
+        "more hosts than clusters"
+    );
+    let two = |second: &str| {
+        parse(
+            "hosts.toml",
+            &format!(
+                r#"name = "h"
+[[cluster]]
+name = "a"
+region = {{ min = [0, 0, 0], max = [9, 9, 9] }}
+host = "left"
+[[cluster]]
+name = "b"
+region = {{ min = [9, 0, 0], max = [18, 9, 9] }}
+{second}
+"#
+            ),
+        )
+        .expect("parses")
+    };
+    let named = two("host = \"right\"");
+    assert_eq!(named.host_layout(None).expect("named"), ["left", "right"]);
+    assert_eq!(
+        named.host_layout(Some(2)).expect("agrees"),
+        ["left", "right"]
+    );
+    assert!(
+        named.host_layout(Some(3)).is_err(),
+        "disagrees with the scene"
+    );
+    let half = two("")
+        .host_layout(None)
+        .expect_err("one cluster without a host");
+    assert!(half.contains("1 of 2 clusters"), "{half}");
+    assert!(
+        two("host = \"a/b\"").host_layout(None).is_err(),
+        "unusable name"
+    );
+}
+
+#[test]
 fn scenery_has_no_owner_and_needs_no_mass() {
     let scenery = r#"name = "t"
 

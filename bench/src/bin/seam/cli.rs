@@ -48,6 +48,15 @@ pub(crate) enum Command {
         /// traffic with more entities (`grid` holds 2 500 balls per layer).
         #[arg(long, default_value_t = 1)]
         layers: u32,
+        /// Run the pods on this many simulated hosts (for a scene whose clusters name no
+        /// `host`): pods of one host share memory (its own iceoryx2 prefix), and one `seam
+        /// bridge` per host carries what crosses hosts over Redis (`--redis`). Needs `--transport
+        /// shm`.
+        #[arg(long)]
+        hosts: Option<u32>,
+        /// The Redis server between hosts, for runs on several hosts.
+        #[arg(long, default_value = "redis://127.0.0.1:6379")]
+        redis: String,
         /// Tick every pod at the same moment (default: pod i of n ticks i/n of a period later,
         /// so co-hosted pods do not all want a core at once).
         #[arg(long)]
@@ -157,6 +166,16 @@ pub(crate) enum Command {
     /// between ticks; stops cleanly on SIGINT or SIGTERM. Writes JSON lines on stdout: progress
     /// about once a second and a final report. Pods of one run must share `--run-id`.
     Node(NodeArgs),
+    /// One host's bridge: passes the channels that cross the host boundary between the host's
+    /// shared memory and a Redis server (started by `seam run --hosts N`, or by hand, one per
+    /// host).
+    ///
+    /// Pods on one host speak shared memory to each other; the bridge forwards exactly the
+    /// replication and physics-events channels that pods on other hosts publish or read, each
+    /// once per host, keeping every message's envelope (publisher and number) so receivers
+    /// count losses end to end. Writes a JSON line when ready and its report (messages, bytes,
+    /// CPU) when SIGINT or SIGTERM stops it.
+    Bridge(seam_bench::bridge::BridgeArgs),
     /// Measure one-way latency between two processes (round trip / 2) over each transport.
     ///
     /// Spawns a peer process that echoes every message back, times the round trips and prints

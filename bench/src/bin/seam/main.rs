@@ -26,6 +26,8 @@ fn main() -> ExitCode {
             ticks,
             model,
             layers,
+            hosts,
+            redis,
             in_phase,
             output,
         } => run_scene(RunPlan {
@@ -44,6 +46,10 @@ fn main() -> ExitCode {
             node_command: Vec::new(),
             start_delay: std::time::Duration::from_millis(750),
             in_phase,
+            hosts: run::HostsPlan {
+                count: hosts,
+                redis: expand_transport(&redis),
+            },
         })
         .and_then(|report| {
             output.report(&report, run::table, run::markdown);
@@ -95,6 +101,9 @@ fn main() -> ExitCode {
         ),
         Command::Node(args) => node::stop_flag().and_then(|stop| {
             node::run_node(&args, &stop, &mut std::io::stdout().lock()).map(|_| ())
+        }),
+        Command::Bridge(args) => node::stop_flag().and_then(|stop| {
+            seam_bench::bridge::run_bridge(&args, &stop, &mut std::io::stdout().lock()).map(|_| ())
         }),
         Command::Ping {
             transport,

@@ -1,0 +1,221 @@
+//! Pods on several hosts: shared memory inside a host, one `seam bridge` per host carrying what
+//! crosses hosts over a real Redis server. Each simulated host is its own iceoryx2 prefix, so a
+//! frame reaches a pod of another host only through the two bridges and Redis.
+
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use seam_bench::bridge::{BridgeLine, host_url};
+use seam_bench::node::{AuthorityArgs, NodeReport, ProxyModeArg};
+use seam_bench::pod::SceneIds;
+use seam_bench::run::{self, HostsPlan, PodSummary, RunPlan, RunReport};
+use seam_proxy::monotonic_ns;
+use seam_tests::{TestContext, finish_pod, redis_url, scene_path, start_pod};
+use seam_transport::Backend;
+
+const NODE: &str = env!("CARGO_BIN_EXE_seam-test-node");
+
+/// A run of `scene` on `hosts` simulated hosts, each pod on its host's own shared memory under
+/// this test's prefix, or `None` where Redis is not there (and not required).
+fn plan(scene: &str, hosts: u32, rate: f64, ticks: u64) -> Option<RunPlan> {
+    let ctx = TestContext::new(Backend::Redis)?;
+    let shm = TestContext::new(Backend::Shm)?;
+    drop(ctx);
+    Some(RunPlan {
+        scene: scene_path(scene),
+        transport: shm.url(),
+        rate,
+        ticks: Some(ticks),
+        proxy_mode: ProxyModeArg::Fixed,
+        authority: AuthorityArgs::default(),
+        replication_interval: 1,
+        coupling: true,
+        quantize: false,
+        keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
+        layers: 1,
+        run_id: run::fresh_run_id(),
+        node_command: vec![NODE.into()],
+        start_delay: Duration::from_millis(500),
+        in_phase: false,
+        hosts: HostsPlan {
+            count: Some(hosts),
+            redis: redis_url(),
+        },
+    })
+}
+
+fn pod<'a>(report: &'a RunReport, name: &str) -> &'a PodSummary {
+    report
+        .pods
+        .iter()
+        .find(|p| p.cluster == name)
+        .unwrap_or_else(|| panic!("no pod {name} in the report"))
+}
+
+/// Checks what every run on several hosts must show: each host's bridge carried messages both
+/// ways and refused none, no pod lost or refused a message, and every entity ended with one
+/// owner.
+fn assert_hosts_hold(report: &RunReport) -> String {
+    let text = run::table(report);
+    let hosts = report
+        .hosts
+        .as_ref()
+        .expect("a run on two hosts reports them");
+    assert_eq!(hosts.bridges.len(), 2, "{text}");
+    for bridge in &hosts.bridges {
+        assert!(
+            bridge.out.messages > 0 && bridge.into.messages > 0,
+            "{text}"
+        );
+        assert_eq!(bridge.out.refused + bridge.into.refused, 0, "{text}");
+    }
+    for p in &report.pods {
+        assert_eq!(p.transport_stats.malformed_drops, 0, "{text}");
+        assert_eq!(
+            p.cluster_stats.neighbours_lost, 0,
+            "nobody taken for dead\n{text}"
+        );
+    }
+    assert!(report.ownership.holds(), "{:?}\n{text}", report.ownership);
+    text
+}
+
+/// `crossfire`'s two clusters on two hosts: every routed op, contact and hand-off between them
+/// crosses the host boundary, through both bridges and Redis, and arrives.
+#[test]
+fn crossfire_on_two_hosts_crosses_through_the_bridges() {
+    let Some(plan) = plan("crossfire.toml", 2, 300.0, 360) else {
+        return;
+    };
+    let report = run::run(&plan, &AtomicBool::new(false), |_| {})
+        .unwrap_or_else(|e| panic!("crossfire on two hosts: {e}"));
+    let text = assert_hosts_hold(&report);
+    let hosts = report.hosts.as_ref().expect("hosts");
+    assert_eq!(hosts.layout, ["a", "b"], "west on a, east on b\n{text}");
+    let (west, east) = (pod(&report, "west"), pod(&report, "east"));
+    assert!(west.cluster_stats.ops_routed > 0, "{text}");
+    assert_eq!(
+        east.cluster_stats.ops_applied + west.cluster_stats.ops_forwarded,
+        west.cluster_stats.ops_routed,
+        "every push west routed reached east through the bridges\n{text}"
+    );
+    assert!(east.ops.transport.p50_ns > 0, "{text}");
+    assert!(
+        west.cluster_stats.handoffs_out >= 1 && east.cluster_stats.handoffs_in >= 1,
+        "the projectile was handed across hosts\n{text}"
+    );
+    assert_eq!(
+        report.totals.cluster.handoffs_out, report.totals.cluster.handoffs_in,
+        "{text}"
+    );
+    assert!(
+        report.totals.cluster.contacts_received > 0,
+        "a contact report crossed hosts\n{text}"
+    );
+}
+
+/// `grid` on two hosts (south-west and south-east on `a`, north-west and north-east on `b`):
+/// balls drifting north are handed to pods of the other host, and every entity ends owned once.
+/// (Routed ops and contacts across hosts are `crossfire`'s test, where every one crosses.)
+#[test]
+fn grid_on_two_hosts_hands_bodies_across_hosts() {
+    let Some(plan) = plan("grid.toml", 2, 120.0, 600) else {
+        return;
+    };
+    let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})
+        .unwrap_or_else(|e| panic!("grid on two hosts: {e}"));
+    let text = assert_hosts_hold(&report);
+    assert_eq!(
+        report.hosts.as_ref().expect("hosts").layout,
+        ["a", "a", "b", "b"]
+    );
+    assert_eq!(report.ownership.owned_once, 2500, "{text}");
+    // Balls born on host a (the southern fields) now owned on host b.
+    let ids = SceneIds::new(&plan.run_id, "grid");
+    let southern: std::collections::HashSet<_> = ["field-sw", "field-se"]
+        .iter()
+        .flat_map(|name| (0..625).map(|i| ids.entity(name, i)))
+        .collect();
+    let crossed: usize = nodes
+        .iter()
+        .filter(|n| n.cluster.starts_with("north"))
+        .map(|n| n.owned.iter().filter(|e| southern.contains(e)).count())
+        .sum();
+    assert!(
+        crossed > 0,
+        "no southern ball ended owned by a northern pod\n{text}"
+    );
+}
+
+/// Starts the bridge of `host` for `crossfire` laid out on two hosts.
+fn bridge(scene: &std::path::Path, host: &str, shm: &str, run_id: &str) -> Child {
+    let mut child = Command::new(NODE)
+        .arg("bridge")
+        .arg(scene)
+        .args(["--host", host, "--hosts", "2", "--run-id", run_id])
+        .args(["--local", &host_url(shm, host).expect("an shm URL")])
+        .env("SEAM_REDIS", redis_url())
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("start a bridge");
+    let stdout = child.stdout.take().expect("stdout");
+    let mut line = String::new();
+    std::io::BufRead::read_line(&mut std::io::BufReader::new(stdout), &mut line)
+        .expect("the bridge says it is ready");
+    assert!(
+        matches!(serde_json::from_str(&line), Ok(BridgeLine::Ready { .. })),
+        "{line}"
+    );
+    child
+}
+
+/// Host `b` dies (its pod and its bridge killed): west, on host `a`, takes east for dead across
+/// the host boundary and adopts what it owned; every entity ends with one owner.
+#[test]
+fn a_dead_host_is_adopted_across_hosts() {
+    let (Some(_redis), Some(shm)) = (
+        TestContext::new(Backend::Redis),
+        TestContext::new(Backend::Shm),
+    ) else {
+        return;
+    };
+    let scene: PathBuf = scene_path("crossfire.toml");
+    let run_id = format!("hostdeath{}", std::process::id());
+    let url = shm.url();
+    let mut bridges = [
+        bridge(&scene, "a", &url, &run_id),
+        bridge(&scene, "b", &url, &run_id),
+    ];
+    let start_at = monotonic_ns() + 500_000_000;
+    let pod = |cluster: &str, host: &str| {
+        let url = host_url(&url, host).expect("an shm URL");
+        start_pod(NODE, &scene, cluster, &url, &run_id, start_at, &[])
+    };
+    let west = pod("west", "a");
+    let mut east = pod("east", "b");
+    std::thread::sleep(Duration::from_millis(1500));
+    east.kill().expect("SIGKILL east");
+    bridges[1].kill().expect("SIGKILL b's bridge");
+    let _ = east.wait();
+    let _ = bridges[1].wait();
+    let (proxies_seen, west): (usize, NodeReport) = finish_pod(west);
+    bridges[0].kill().expect("stop a's bridge");
+    let _ = bridges[0].wait();
+    assert!(
+        proxies_seen > 0,
+        "west modelled east's crates through the bridges"
+    );
+    assert_eq!(west.ticks, 480, "west kept ticking");
+    assert_eq!(west.cluster_stats.neighbours_lost, 1, "east taken for dead");
+    assert!(
+        west.cluster_stats.entities_adopted > 0,
+        "west adopted east's entities"
+    );
+    assert_eq!(west.proxies, 0, "no proxy of the dead host is left");
+    let scene = seam_bench::scene::load(&scene).expect("scene");
+    let ownership = seam_bench::run::ownership::check(&scene, &run_id, &[west]);
+    assert!(ownership.holds(), "{ownership:?}");
+}
