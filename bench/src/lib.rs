@@ -42,6 +42,7 @@ pub mod ops;
 pub mod ping;
 pub mod pod;
 pub mod redis_server;
+pub mod relay;
 pub mod run;
 pub mod scene;
 pub mod sweep;

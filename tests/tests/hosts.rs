@@ -42,6 +42,7 @@ fn plan(scene: &str, hosts: u32, rate: f64, ticks: u64) -> Option<RunPlan> {
         hosts: HostsPlan {
             count: Some(hosts),
             redis: redis_url(),
+            ..HostsPlan::default()
         },
     })
 }
@@ -64,6 +65,14 @@ fn assert_hosts_hold(report: &RunReport) -> String {
         .as_ref()
         .expect("a run on two hosts reports them");
     assert_eq!(hosts.bridges.len(), 2, "{text}");
+    // As root the hosts are network namespaces; otherwise the report says they are not.
+    let root = rustix::process::geteuid().is_root();
+    assert_eq!(
+        hosts.simulated_as.starts_with("network namespaces"),
+        root,
+        "{}",
+        hosts.simulated_as
+    );
     for bridge in &hosts.bridges {
         assert!(
             bridge.out.messages > 0 && bridge.into.messages > 0,

@@ -195,6 +195,7 @@ pub fn run(
                 rejoin,
                 panics: &panics,
                 transport: None,
+                namespace: None,
             },
             &lines,
         )?;

@@ -13,9 +13,11 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 use crate::bridge::{BridgeLine, BridgeReport, host_url};
+use crate::relay::{Delay, Relay};
 use crate::scene::Scene;
 
 use super::RunPlan;
+use super::netns::{Namespaces, redirect};
 
 /// How `seam run` lays pods out on hosts.
 #[derive(Debug, Clone)]
@@ -24,6 +26,12 @@ pub struct HostsPlan {
     pub count: Option<u32>,
     /// The Redis server between hosts.
     pub redis: String,
+    /// Delay the traffic between one host and Redis by this much each way (simulated latency).
+    pub delay: Delay,
+    /// The host delayed (default: the last).
+    pub delayed_host: Option<String>,
+    /// Make hosts network namespaces when root (otherwise, or if that fails, prefixes only).
+    pub namespaces: bool,
 }
 
 impl Default for HostsPlan {
@@ -31,6 +39,9 @@ impl Default for HostsPlan {
         Self {
             count: None,
             redis: "redis://127.0.0.1:6379".to_owned(),
+            delay: Delay::NONE,
+            delayed_host: None,
+            namespaces: true,
         }
     }
 }
@@ -46,16 +57,21 @@ pub struct HostsSummary {
     pub bridges: Vec<BridgeReport>,
 }
 
-/// What the report says a simulated host is.
+/// What the report says a simulated host is when no network namespace could be made.
 pub const SIMULATED_AS: &str =
     "separate iceoryx2 prefixes on one machine (no network namespaces), Redis over loopback";
 
-/// The bridges of a run, started.
+/// The bridges of a run, started. Field order matters on drop: bridges end before their relays
+/// and namespaces go.
 pub(super) struct Bridges {
     hosts: Vec<String>,
     children: Vec<Child>,
     readers: Vec<JoinHandle<Option<BridgeReport>>>,
     layout: Vec<String>,
+    simulated_as: String,
+    /// A relay on loopback for a delayed host when there are no namespaces.
+    _loopback_relay: Option<Relay>,
+    namespaces: Option<Namespaces>,
 }
 
 /// How long a bridge may take to open its transports.
@@ -77,14 +93,65 @@ impl Bridges {
             .node_command
             .first()
             .ok_or("no command to start a bridge")?;
+        if let Some(delayed) = &plan.hosts.delayed_host
+            && !hosts.contains(delayed)
+        {
+            return Err(format!(
+                "--delayed-host {delayed:?}: the run's hosts are {}",
+                hosts.join(", ")
+            ));
+        }
+        let delayed_host = plan
+            .hosts
+            .delayed_host
+            .clone()
+            .or_else(|| hosts.last().cloned())
+            .unwrap_or_default();
+        let delay =
+            (!plan.hosts.delay.is_none()).then_some((delayed_host.as_str(), plan.hosts.delay));
+        let tag = format!(
+            "{:x}",
+            (std::process::id() ^ run_salt(&plan.run_id)) & 0xff_ffff
+        );
+        let namespaces = if plan.hosts.namespaces {
+            Namespaces::create(&tag, &hosts, &plan.hosts.redis, delay)
+        } else {
+            Err("namespaces turned off".to_owned())
+        };
+        let (namespaces, simulated_as, loopback_relay) = match namespaces {
+            Ok(made) => {
+                let described = made.describe();
+                (Some(made), described, None)
+            }
+            Err(why) => {
+                let relay = match delay {
+                    Some((_, delay)) => Some(loopback_relay(&plan.hosts.redis, delay)?),
+                    None => None,
+                };
+                (None, format!("{SIMULATED_AS}: {why}"), relay)
+            }
+        };
+        if namespaces.is_none() {
+            tracing::warn!("seam run --hosts: {simulated_as}");
+        }
         let mut bridges = Self {
             hosts: Vec::new(),
             children: Vec::new(),
             readers: Vec::new(),
             layout,
+            simulated_as,
+            _loopback_relay: loopback_relay,
+            namespaces,
         };
         for host in &hosts {
-            let mut command = Command::new(program);
+            let redis = match (&bridges.namespaces, &bridges._loopback_relay, delay) {
+                (Some(ns), ..) => ns.redis_url(host, &plan.hosts.redis),
+                (None, Some(relay), Some((delayed, _))) if delayed == host => {
+                    redirect(&plan.hosts.redis, relay.addr())
+                }
+                _ => plan.hosts.redis.clone(),
+            };
+            let mut command = bridges.command(host, program);
             command
                 .arg("bridge")
                 .arg(&plan.scene)
@@ -92,7 +159,7 @@ impl Bridges {
                 .args(["--run-id", &plan.run_id])
                 .args(["--local", &host_url(&plan.transport, host)?])
                 // Through the environment: the URL may hold a password.
-                .env("SEAM_REDIS", &plan.hosts.redis)
+                .env("SEAM_REDIS", &redis)
                 .stdin(Stdio::null())
                 .stdout(Stdio::piped())
                 .stderr(Stdio::inherit());
@@ -127,6 +194,17 @@ impl Bridges {
         host_url(&plan.transport, &self.layout[index])
     }
 
+    /// The network namespace the pod of cluster number `index` runs in, if hosts are
+    /// namespaces.
+    pub(super) fn pod_namespace(&self, index: usize) -> Option<&str> {
+        self.namespaces.as_ref()?.name(&self.layout[index])
+    }
+
+    /// A command running `program` on `host` (inside its namespace, if it has one).
+    fn command(&self, host: &str, program: &std::ffi::OsStr) -> Command {
+        in_namespace(self.namespaces.as_ref().and_then(|n| n.name(host)), program)
+    }
+
     /// Stops every bridge and gathers their reports.
     pub(super) fn finish(mut self) -> Result<HostsSummary, String> {
         self.signal_all();
@@ -150,7 +228,7 @@ impl Bridges {
             return Err(problems.join("\n"));
         }
         Ok(HostsSummary {
-            simulated_as: SIMULATED_AS.to_owned(),
+            simulated_as: std::mem::take(&mut self.simulated_as),
             layout: std::mem::take(&mut self.layout),
             bridges,
         })
@@ -192,4 +270,30 @@ fn read_lines(stdout: std::process::ChildStdout, ready: mpsc::Sender<()>) -> Opt
         }
     }
     report
+}
+
+/// A command running `program`, inside network namespace `namespace` if given.
+pub(super) fn in_namespace(namespace: Option<&str>, program: &std::ffi::OsStr) -> Command {
+    match namespace {
+        Some(name) => {
+            let mut command = Command::new("ip");
+            command.args(["netns", "exec", name]).arg(program);
+            command
+        }
+        None => Command::new(program),
+    }
+}
+
+/// A relay on loopback in front of the Redis server of `redis`, delaying by `delay`.
+fn loopback_relay(redis: &str, delay: Delay) -> Result<Relay, String> {
+    let upstream = super::netns::redis_addr(redis)?;
+    let any = std::net::SocketAddr::new(std::net::Ipv4Addr::LOCALHOST.into(), 0);
+    Relay::start(any, upstream, delay)
+}
+
+/// A few bits of the run id, so concurrent runs of one process name their namespaces apart.
+fn run_salt(run_id: &str) -> u32 {
+    run_id
+        .bytes()
+        .fold(0u32, |h, b| h.wrapping_mul(31).wrapping_add(u32::from(b)))
 }

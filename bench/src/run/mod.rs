@@ -12,13 +12,14 @@
 //! tick and still report.
 
 mod hosts;
+mod netns;
 pub mod ownership;
 mod report;
 
 use std::ffi::OsString;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Child, ChildStderr, Command, Stdio};
+use std::process::{Child, ChildStderr, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc;
@@ -94,6 +95,8 @@ pub struct PodLaunch<'a> {
     pub panics: &'a Arc<AtomicU64>,
     /// Its transport URL when not the plan's (a pod on one of several hosts).
     pub transport: Option<&'a str>,
+    /// The network namespace it runs in (a pod on a simulated host), if any.
+    pub namespace: Option<&'a str>,
 }
 
 /// A line a pod wrote, tagged with its index, or why it could not be read.
@@ -112,7 +115,7 @@ pub fn spawn_pod(
         .node_command
         .split_first()
         .ok_or("no command to start a pod")?;
-    let mut command = Command::new(program);
+    let mut command = hosts::in_namespace(launch.namespace, program);
     command
         .args(leading)
         .arg(&plan.scene)
@@ -270,6 +273,7 @@ pub fn run_pods(
                 rejoin: false,
                 panics: &panics,
                 transport: url.as_deref(),
+                namespace: bridges.as_ref().and_then(|b| b.pod_namespace(index)),
             },
             &lines,
         )?;

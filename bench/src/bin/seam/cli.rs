@@ -48,15 +48,8 @@ pub(crate) enum Command {
         /// traffic with more entities (`grid` holds 2 500 balls per layer).
         #[arg(long, default_value_t = 1)]
         layers: u32,
-        /// Run the pods on this many simulated hosts (for a scene whose clusters name no
-        /// `host`): pods of one host share memory (its own iceoryx2 prefix), and one `seam
-        /// bridge` per host carries what crosses hosts over Redis (`--redis`). Needs `--transport
-        /// shm`.
-        #[arg(long)]
-        hosts: Option<u32>,
-        /// The Redis server between hosts, for runs on several hosts.
-        #[arg(long, default_value = "redis://127.0.0.1:6379")]
-        redis: String,
+        #[command(flatten)]
+        hosts: HostsArgs,
         /// Tick every pod at the same moment (default: pod i of n ticks i/n of a period later,
         /// so co-hosted pods do not all want a core at once).
         #[arg(long)]
@@ -371,4 +364,33 @@ impl Output {
             print!("{}", table(report));
         }
     }
+}
+
+/// Where `seam run` puts its pods: one host, or several simulated ones.
+#[derive(Debug, clap::Args)]
+pub(crate) struct HostsArgs {
+    /// Run the pods on this many simulated hosts (for a scene whose clusters name no `host`;
+    /// a scene that names them runs on its own hosts without this flag). Pods of one host share
+    /// memory (the host's own iceoryx2 prefix); one `seam bridge` per host carries what crosses
+    /// hosts over Redis (`--redis`). As root each host is a network namespace made by the run
+    /// (and removed after) that reaches Redis only over its veth pair; otherwise the run says
+    /// so and uses prefixes alone. Needs `--transport shm`.
+    #[arg(long)]
+    pub(crate) hosts: Option<u32>,
+    /// The Redis server between hosts (on this machine's loopback for simulated hosts).
+    #[arg(long, default_value = "redis://127.0.0.1:6379")]
+    pub(crate) redis: String,
+    /// Simulated latency: delay everything between one host's bridge and Redis by this many ms
+    /// each way (a relay in front of Redis; this kernel has no netem).
+    #[arg(long, default_value_t = 0.0)]
+    pub(crate) delay_ms: f64,
+    /// Plus up to this many ms more per chunk, uniformly at random (order kept).
+    #[arg(long, default_value_t = 0.0)]
+    pub(crate) jitter_ms: f64,
+    /// The host whose traffic is delayed (default: the last).
+    #[arg(long)]
+    pub(crate) delayed_host: Option<String>,
+    /// Simulate hosts by iceoryx2 prefix alone, even as root (no network namespaces).
+    #[arg(long)]
+    pub(crate) no_namespaces: bool,
 }

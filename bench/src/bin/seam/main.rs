@@ -27,7 +27,6 @@ fn main() -> ExitCode {
             model,
             layers,
             hosts,
-            redis,
             in_phase,
             output,
         } => run_scene(RunPlan {
@@ -47,8 +46,14 @@ fn main() -> ExitCode {
             start_delay: std::time::Duration::from_millis(750),
             in_phase,
             hosts: run::HostsPlan {
-                count: hosts,
-                redis: expand_transport(&redis),
+                count: hosts.hosts,
+                redis: expand_transport(&hosts.redis),
+                delay: seam_bench::relay::Delay {
+                    base: std::time::Duration::from_secs_f64(hosts.delay_ms.max(0.0) / 1e3),
+                    jitter: std::time::Duration::from_secs_f64(hosts.jitter_ms.max(0.0) / 1e3),
+                },
+                delayed_host: hosts.delayed_host,
+                namespaces: !hosts.no_namespaces,
             },
         })
         .and_then(|report| {
