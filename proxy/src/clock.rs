@@ -13,6 +13,9 @@ pub fn monotonic_ns() -> u64 {
 /// When each stage of one routed op happened, host monotonic nanoseconds, and in which ticks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct OpTiming {
+    /// The cluster whose physics-events frame brought it (its issuer, or the former owner
+    /// that forwarded it).
+    pub from: seam_sim::wire::ClusterId,
     /// User code made the write (issuing cluster).
     pub issued_ns: u64,
     /// The frame carrying it was handed to the transport (issuing cluster).

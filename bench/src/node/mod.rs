@@ -393,6 +393,7 @@ pub fn run_node(
         transport_stats: transport.into(),
         events: pod.event_counts(),
         ops: pod.op_stages().clone(),
+        ops_by_sender: pod.op_stages_by_sender(),
         projectile_hits: pod
             .projectile_hits()
             .iter()

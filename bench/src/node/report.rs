@@ -141,6 +141,9 @@ pub struct NodeReport {
     pub events: EventCounts,
     /// Stage times of the routed ops this pod applied.
     pub ops: OpStages,
+    /// The same, by the scene cluster whose frame brought them.
+    #[serde(default)]
+    pub ops_by_sender: Vec<(String, OpStages)>,
     /// Contacts that started between a projectile and anything in this pod's world: pair →
     /// first tick.
     pub projectile_hits: Vec<((EntityId, EntityId), u64)>,

@@ -124,6 +124,10 @@ pub struct Pod {
     /// The pushes this pod's events routed to other owners in its last tick.
     routed_pushes: Vec<RoutedPush>,
     stages: OpStages,
+    /// The same, by the cluster whose frame brought each op.
+    stages_by_sender: BTreeMap<ClusterId, OpStages>,
+    /// Scene name of every cluster, by id.
+    cluster_names: HashMap<ClusterId, String>,
     owned_at_start: usize,
     /// Projectiles this pod fired.
     fired: Vec<EntityId>,
@@ -192,6 +196,7 @@ impl Pod {
             .map(|c| (c.name.clone(), ids.cluster(&c.name)))
             .collect();
         let world = scene_world_map(scene, &clusters);
+        let cluster_names = clusters.iter().map(|(n, id)| (*id, n.clone())).collect();
         let (name, plays, cluster_id, neighbours, region, spread) = match part {
             Part::Reference => (
                 "reference".to_owned(),
@@ -315,6 +320,8 @@ impl Pod {
             counts: EventCounts::default(),
             routed_pushes: Vec::new(),
             stages: OpStages::default(),
+            stages_by_sender: BTreeMap::new(),
+            cluster_names,
             owned_at_start,
             fired: Vec::new(),
             all_projectiles: HashSet::new(),
@@ -435,6 +442,17 @@ impl Pod {
     /// Stage times of the routed ops this pod applied so far.
     pub fn op_stages(&self) -> &OpStages {
         &self.stages
+    }
+
+    /// The same, by the scene cluster whose frame brought the ops.
+    pub fn op_stages_by_sender(&self) -> Vec<(String, OpStages)> {
+        self.stages_by_sender
+            .iter()
+            .map(|(id, stages)| {
+                let name = self.cluster_names.get(id).cloned();
+                (name.unwrap_or_else(|| id.to_string()), stages.clone())
+            })
+            .collect()
     }
 
     /// Entities owned here and proxies of other clusters' entities, now (scenery is neither).
@@ -610,6 +628,10 @@ impl Pod {
     fn after_tick(&mut self) {
         for timing in self.cluster.take_op_timings() {
             self.stages.record(&timing);
+            self.stages_by_sender
+                .entry(timing.from)
+                .or_default()
+                .record(&timing);
         }
         if self.all_projectiles.is_empty() {
             return;

@@ -12,7 +12,11 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
+use std::collections::HashMap;
+
 use crate::bridge::{BridgeLine, BridgeReport, host_url};
+use crate::node::NodeReport;
+use crate::pod::{OpStages, OpStagesSummary};
 use crate::relay::{Delay, Relay};
 use crate::scene::Scene;
 
@@ -55,6 +59,36 @@ pub struct HostsSummary {
     pub layout: Vec<String>,
     /// One report per host's bridge.
     pub bridges: Vec<BridgeReport>,
+    /// Stages of the routed ops applied by a pod of the host that published them.
+    pub ops_same_host: Option<OpStagesSummary>,
+    /// Stages of the routed ops that crossed hosts (through two bridges and Redis).
+    pub ops_cross_host: Option<OpStagesSummary>,
+}
+
+impl HostsSummary {
+    /// Splits the pods' routed-op stages into those that stayed on a host and those that
+    /// crossed, by the host of the pod that sent each op's frame.
+    pub(super) fn split_ops(&mut self, scene: &Scene, reports: &[NodeReport]) {
+        let host_of: HashMap<&str, &str> = scene
+            .clusters
+            .iter()
+            .zip(&self.layout)
+            .map(|(c, h)| (c.name.as_str(), h.as_str()))
+            .collect();
+        let (mut same, mut cross) = (OpStages::default(), OpStages::default());
+        for report in reports {
+            let here = host_of.get(report.cluster.as_str());
+            for (sender, stages) in &report.ops_by_sender {
+                if host_of.get(sender.as_str()) == here {
+                    same.merge(stages);
+                } else {
+                    cross.merge(stages);
+                }
+            }
+        }
+        self.ops_same_host = (same.ops > 0).then(|| same.summary());
+        self.ops_cross_host = (cross.ops > 0).then(|| cross.summary());
+    }
 }
 
 /// What the report says a simulated host is when no network namespace could be made.
@@ -231,6 +265,8 @@ impl Bridges {
             simulated_as: std::mem::take(&mut self.simulated_as),
             layout: std::mem::take(&mut self.layout),
             bridges,
+            ops_same_host: None,
+            ops_cross_host: None,
         })
     }
 

@@ -371,7 +371,10 @@ pub fn run_pods(
         wall_s,
         &complete,
     );
-    report.hosts = hosts;
+    report.hosts = hosts.map(|mut hosts| {
+        hosts.split_ops(&scene, &complete);
+        hosts
+    });
     Ok((report, complete))
 }
 

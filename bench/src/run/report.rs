@@ -422,6 +422,30 @@ pub fn markdown(report: &RunReport) -> String {
         }
         out += &format!("\nHosts simulated as {}.\n\n", hosts.simulated_as);
         out += &bridges.render();
+        let mut crossing = Table::new(&[
+            ("routed ops", Left),
+            ("ops", Right),
+            ("transport p50 µs", Right),
+            ("p99", Right),
+            ("whole p50 µs", Right),
+        ]);
+        let us = |ns: u64| grouped((ns as f64 / 1000.0).round() as u64);
+        for (name, ops) in [
+            ("on one host", &hosts.ops_same_host),
+            ("across hosts", &hosts.ops_cross_host),
+        ] {
+            if let Some(o) = ops {
+                crossing.row(vec![
+                    name.to_owned(),
+                    grouped(o.ops),
+                    us(o.transport.p50_ns),
+                    us(o.transport.p99_ns),
+                    us(o.whole.p50_ns),
+                ]);
+            }
+        }
+        out += "\n";
+        out += &crossing.render();
     }
     out
 }
@@ -446,6 +470,20 @@ fn hosts_lines(hosts: &super::HostsSummary) -> String {
             bridge.out.refused + bridge.into.refused,
             100.0 * bridge.core_share()
         );
+    }
+    for (name, ops) in [
+        ("on one host", &hosts.ops_same_host),
+        ("across hosts", &hosts.ops_cross_host),
+    ] {
+        if let Some(o) = ops {
+            out += &format!(
+                "  routed ops {name}: {}, transport p50 {} µs, p99 {} µs; whole p50 {} µs\n",
+                o.ops,
+                micros(o.transport.p50_ns),
+                micros(o.transport.p99_ns),
+                micros(o.whole.p50_ns)
+            );
+        }
     }
     out
 }

@@ -72,6 +72,7 @@ impl Cluster {
                             Ok(()) => {
                                 self.stats.ops_applied += 1;
                                 let timing = OpTiming {
+                                    from: frame.from,
                                     issued_ns: routed.issued_ns,
                                     published_ns: frame.published_ns,
                                     received_ns: *received_ns,
