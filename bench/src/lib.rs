@@ -37,6 +37,7 @@ pub mod chaos;
 pub mod console;
 pub mod latency;
 pub mod markdown;
+pub mod network;
 pub mod node;
 pub mod ops;
 pub mod ping;

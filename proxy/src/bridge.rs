@@ -19,6 +19,9 @@
 //!
 //! Each direction runs on its own thread with its own transports and sleeps on its own receive
 //! (iceoryx2's wake-up on one, the Redis socket on the other), so a message waits for no poll.
+//! What has arrived by the time a direction wakes is passed on as one batch
+//! ([`seam_transport::Transport::forward_all`]: one pipelined round trip on Redis), so the rate
+//! a bridge sustains does not fall with the distance to the server.
 
 use std::collections::BTreeSet;
 use std::sync::Arc;
@@ -205,28 +208,46 @@ fn pass_on(
         let _ = sink.advertise(channel, 0);
     }
     let _ = opened.send(());
+    let failed = |e: seam_transport::ReceiveError| format!("bridge: {}: {e}", redact_url(from));
+    let mut batch = Vec::new();
     while !stop.load(Ordering::Relaxed) {
-        let message = source
-            .receive_timeout(STOP_CHECK)
-            .map_err(|e| format!("bridge: {}: {e}", redact_url(from)))?;
-        let Some(message) = message else {
+        // Sleep until something comes, then take whatever else is already here: the batch goes
+        // out together (one round trip on Redis), so a far server does not hold the host back.
+        let Some(first) = source.receive_timeout(STOP_CHECK).map_err(failed)? else {
             continue;
         };
-        match sink.forward(message.channel, message.origin, message.payload) {
+        batch.push(first.to_owned());
+        let mut bytes = batch[0].payload.len();
+        while batch.len() < MAX_BATCH && bytes < MAX_BATCH_BYTES {
+            let Some(next) = source.try_receive().map_err(failed)? else {
+                break;
+            };
+            bytes += next.payload.len();
+            batch.push(next.to_owned());
+        }
+        match sink.forward_all(&batch) {
             Ok(_) => {
-                counters.messages.fetch_add(1, Ordering::Relaxed);
                 counters
-                    .bytes
-                    .fetch_add(message.payload.len() as u64, Ordering::Relaxed);
+                    .messages
+                    .fetch_add(batch.len() as u64, Ordering::Relaxed);
+                counters.bytes.fetch_add(bytes as u64, Ordering::Relaxed);
             }
             Err(e) => {
-                counters.refused.fetch_add(1, Ordering::Relaxed);
-                tracing::debug!(channel = message.channel, error = %e, "bridge: not passed on");
+                counters
+                    .refused
+                    .fetch_add(batch.len() as u64, Ordering::Relaxed);
+                tracing::debug!(messages = batch.len(), error = %e, "bridge: not passed on");
             }
         }
+        batch.clear();
     }
     Ok(())
 }
+
+/// Most messages a bridge sends as one batch.
+const MAX_BATCH: usize = 256;
+/// Most payload bytes in one batch.
+const MAX_BATCH_BYTES: usize = 8 << 20;
 
 #[cfg(test)]
 mod tests {

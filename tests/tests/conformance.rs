@@ -499,6 +499,23 @@ fn forward_keeps_the_envelope(ctx: &TestContext) {
         1,
         "the receiver counts the message lost between the hops"
     );
+    // A batch goes out in order, each message under its own envelope.
+    let batch: Vec<_> = received
+        .iter()
+        .rev()
+        .map(|m| seam_transport::OwnedMessage {
+            channel: onward.clone(),
+            ..m.clone()
+        })
+        .collect();
+    assert_eq!(bridge.forward_all(&batch).expect("forward_all"), 3);
+    for expected in &batch {
+        let got = receive(last_hop.as_mut(), PATIENCE).expect("a batched message arrives");
+        assert_eq!(
+            (got.origin, &got.payload),
+            (expected.origin, &expected.payload)
+        );
+    }
     // The bridge's own numbering on the channel starts at 1, whatever it forwarded.
     bridge.publish(&onward, b"own").expect("publish");
     let own = receive(last_hop.as_mut(), PATIENCE).expect("arrives");

@@ -10,6 +10,7 @@ use std::time::Duration;
 use seam_bench::bridge::{BridgeLine, host_url};
 use seam_bench::node::{AuthorityArgs, NodeReport, ProxyModeArg};
 use seam_bench::pod::SceneIds;
+use seam_bench::relay::Delay;
 use seam_bench::run::{self, HostsPlan, PodSummary, RunPlan, RunReport};
 use seam_proxy::monotonic_ns;
 use seam_tests::{TestContext, finish_pod, redis_url, scene_path, start_pod};
@@ -83,6 +84,10 @@ fn assert_hosts_hold(report: &RunReport) -> String {
     for p in &report.pods {
         assert_eq!(p.transport_stats.malformed_drops, 0, "{text}");
         assert_eq!(
+            p.transport_stats.overflow_drops, 0,
+            "nothing lost on the way (gaps in the publishers' numbering, end to end)\n{text}"
+        );
+        assert_eq!(
             p.cluster_stats.neighbours_lost, 0,
             "nobody taken for dead\n{text}"
         );
@@ -95,9 +100,25 @@ fn assert_hosts_hold(report: &RunReport) -> String {
 /// crosses the host boundary, through both bridges and Redis, and arrives.
 #[test]
 fn crossfire_on_two_hosts_crosses_through_the_bridges() {
-    let Some(plan) = plan("crossfire.toml", 2, 300.0, 360) else {
+    crossfire_on_two_hosts(Delay::NONE);
+}
+
+/// The same with host b 20 ms from Redis each way (a relay delays its traffic): the bridges
+/// keep up — a bridge that waited for each publish's reply would pass on 25 messages a second
+/// and drop the rest.
+#[test]
+fn crossfire_on_two_hosts_20_ms_apart_loses_nothing() {
+    crossfire_on_two_hosts(Delay {
+        base: Duration::from_millis(20),
+        jitter: Duration::from_millis(2),
+    });
+}
+
+fn crossfire_on_two_hosts(delay: Delay) {
+    let Some(mut plan) = plan("crossfire.toml", 2, 120.0, 360) else {
         return;
     };
+    plan.hosts.delay = delay;
     let report = run::run(&plan, &AtomicBool::new(false), |_| {})
         .unwrap_or_else(|e| panic!("crossfire on two hosts: {e}"));
     let text = assert_hosts_hold(&report);

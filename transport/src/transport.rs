@@ -3,7 +3,7 @@
 use std::time::Duration;
 
 use crate::error::{PublishError, ReceiveError, SubscribeError};
-use crate::{Message, Stats};
+use crate::{Message, OwnedMessage, Stats};
 
 /// Which backend a transport runs on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -78,6 +78,17 @@ pub trait Transport {
         origin: crate::Origin,
         payload: &[u8],
     ) -> Result<usize, PublishError>;
+
+    /// Forwards several received messages in order, as [`Transport::forward`] each; returns
+    /// how many were sent. On Redis they go out as one pipeline — one round trip to the server
+    /// for the batch instead of one per message — which is what keeps a bridge in step with
+    /// its host when the server is far away.
+    fn forward_all(&mut self, batch: &[OwnedMessage]) -> Result<usize, PublishError> {
+        for message in batch {
+            self.forward(&message.channel, message.origin, &message.payload)?;
+        }
+        Ok(batch.len())
+    }
 
     /// Gets ready to publish on `channel` payloads of about `expected_payload` bytes, so the
     /// first publish costs no more than the next ones. On iceoryx2 this creates the channel's

@@ -26,6 +26,8 @@ pub struct FreeRunning {
     pub rate: f64,
     /// The command that starts a pod (`[seam, "node"]`).
     pub node_command: Vec<OsString>,
+    /// The hosts the pods run on (one, unless set).
+    pub hosts: crate::run::HostsPlan,
 }
 
 /// Runs the scene at `scene_path` as free-running pods over `transport` with the proxy mode and
@@ -39,6 +41,20 @@ pub fn run_free_trial(
     free: &FreeRunning,
     run_id: &str,
 ) -> Result<TrialResult, String> {
+    run_free_trial_on_hosts(scene_path, scene, settings, transport, free, run_id)
+        .map(|(result, _)| result)
+}
+
+/// As [`run_free_trial`], also returning how the hosts were simulated when `free.hosts` puts
+/// the pods on several.
+pub fn run_free_trial_on_hosts(
+    scene_path: &Path,
+    scene: &Scene,
+    settings: &TrialSettings,
+    transport: &str,
+    free: &FreeRunning,
+    run_id: &str,
+) -> Result<(TrialResult, Option<String>), String> {
     let proxy_mode = match settings.proxy_mode {
         seam_proxy::ProxyMode::Fixed => ProxyModeArg::Fixed,
         _ => ProxyModeArg::Kinematic,
@@ -60,7 +76,7 @@ pub fn run_free_trial(
         node_command: free.node_command.clone(),
         start_delay: Duration::from_millis(500),
         in_phase: false,
-        hosts: crate::run::HostsPlan::default(),
+        hosts: free.hosts.clone(),
     };
     let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})?;
 
@@ -148,7 +164,8 @@ pub fn run_free_trial(
         report.pods.iter().map(|p| f(&p.cluster_stats)).sum::<u64>() as f64 / ran
     };
     let ops = &report.ops;
-    Ok(TrialResult {
+    let simulated_as = report.hosts.as_ref().map(|h| h.simulated_as.clone());
+    let result = TrialResult {
         scene: scene.name.clone(),
         transport: report.transport.clone(),
         position_basis: "final tick",
@@ -186,5 +203,6 @@ pub fn run_free_trial(
             op_whole_p99_us: ops.whole.p99_ns as f64 / 1e3,
             op_transport_p50_us: ops.transport.p50_ns as f64 / 1e3,
         },
-    })
+    };
+    Ok((result, simulated_as))
 }

@@ -24,7 +24,7 @@ use crate::node::AuthorityArgs;
 use crate::pod::{OpStages, Part, Pod, PodSettings};
 use crate::scene::{Event, Scene};
 pub use compare::{Accuracy, Comparison, TRACKED_M};
-pub use free::{FreeRunning, run_free_trial};
+pub use free::{FreeRunning, run_free_trial, run_free_trial_on_hosts};
 
 /// How long a lock-step tick may wait for a neighbour's frame before the trial fails.
 const LOCKSTEP_TIMEOUT: Duration = Duration::from_secs(10);

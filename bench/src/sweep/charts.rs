@@ -20,7 +20,7 @@ const FONT_PATHS: &[&str] = &[
 ];
 
 /// Registers a font for chart text once; plotters needs one to measure and draw labels.
-fn font() -> Result<(), String> {
+pub fn chart_font() -> Result<(), String> {
     static FONT: OnceLock<Result<(), String>> = OnceLock::new();
     FONT.get_or_init(|| {
         let from_env = std::env::var("SEAM_FONT").ok();
@@ -83,7 +83,7 @@ const CHAOTIC: &[&str] = &["crossfire"];
 /// every scene, `hit_recall_vs_speed_SCENE_MODE` for every scene whose single world has hits.
 /// Returns the files written.
 pub fn draw_all(results: &[TrialResult], out: &Path) -> Result<Vec<PathBuf>, String> {
-    font()?;
+    chart_font()?;
     let mut written = Vec::new();
     // The charts compare settings in lock-step, where runs are deterministic; free-running
     // rows (the transport axis) are in the CSV.

@@ -21,7 +21,7 @@ use crate::accuracy::{
     FreeRunning, TrialResult, TrialSettings, mode_name, run_free_trial, run_trial,
 };
 use crate::scene::Scene;
-pub use charts::draw_all;
+pub use charts::{chart_font, draw_all};
 
 /// The values of each axis.
 #[derive(Debug, Clone)]

@@ -188,6 +188,53 @@ impl Transport for RedisTransport {
         self.send(channel, Envelope::forwarded(origin, payload.len()))
     }
 
+    fn forward_all(&mut self, batch: &[crate::OwnedMessage]) -> Result<usize, PublishError> {
+        for message in batch {
+            check_publish(
+                &message.channel,
+                message.payload.len(),
+                self.config.max_payload,
+            )?;
+        }
+        if batch.is_empty() {
+            return Ok(0);
+        }
+        if self.config.reconnect && !self.up() {
+            self.intake.stats.dropped_while_down += batch.len() as u64;
+            return Ok(0);
+        }
+        let mut pipeline = redis::pipe();
+        for message in batch {
+            self.out.clear();
+            self.out.resize(Envelope::WIRE_LEN, 0);
+            let head: &mut [u8; Envelope::WIRE_LEN] = (&mut self.out[..Envelope::WIRE_LEN])
+                .try_into()
+                .expect("the buffer starts with room for the envelope");
+            Envelope::forwarded(message.origin, message.payload.len()).write_to(head);
+            self.out.extend_from_slice(&message.payload);
+            pipeline
+                .cmd("PUBLISH")
+                .arg(&message.channel)
+                .arg(&self.out[..])
+                .ignore();
+        }
+        match pipeline.exec(&mut self.publisher) {
+            Ok(()) => {
+                self.intake.stats.published += batch.len() as u64;
+                Ok(batch.len())
+            }
+            Err(e) if self.config.reconnect && connection_lost(&e) => {
+                self.went_down();
+                self.intake.stats.dropped_while_down += batch.len() as u64;
+                Ok(0)
+            }
+            Err(e) => Err(PublishError::Disconnected {
+                addr: self.addr.clone(),
+                reason: e.to_string(),
+            }),
+        }
+    }
+
     fn subscribe(&mut self, channel: &str) -> Result<(), SubscribeError> {
         self.subscription("SUBSCRIBE", channel)
     }

@@ -116,6 +116,34 @@ pub(crate) enum Command {
         #[arg(long, default_value = "sweep")]
         out: std::path::PathBuf,
     },
+    /// Accuracy against the network between hosts: each scene on two simulated hosts, the second
+    /// host's traffic to Redis delayed by each delay in turn.
+    ///
+    /// Pods run free-running at `--rate` as in `seam run --hosts 2` (network namespaces as root,
+    /// else separate shm prefixes; a relay in front of Redis adds the delay, since this kernel
+    /// has no netem: the delay is simulated). Each run is compared with a single-world run of
+    /// the same ticks: projectile hit recall, final position error, routed-op delay in ticks.
+    /// Writes `network.csv` and `accuracy_vs_delay_SCENE.svg`/`.png` into `--out`.
+    Network {
+        /// Scene files (default: crossfire and gallery of bench/scenes/).
+        #[arg(long = "scene")]
+        scenes: Vec<std::path::PathBuf>,
+        /// One-way delays between host b and Redis, ms, comma separated.
+        #[arg(long, default_value = "0,1,5,20", value_delimiter = ',')]
+        delays_ms: Vec<f64>,
+        /// Up to this much more per chunk, ms, uniformly at random (order kept).
+        #[arg(long, default_value_t = 0.0)]
+        jitter_ms: f64,
+        /// Ticks per second of the pods.
+        #[arg(long, default_value_t = 60.0)]
+        rate: f64,
+        /// The Redis server between hosts (on this machine's loopback).
+        #[arg(long, default_value = "redis://127.0.0.1:6379")]
+        redis: String,
+        /// Where to write the CSV and the charts.
+        #[arg(long, default_value = "network")]
+        out: std::path::PathBuf,
+    },
     /// Run a scene's pods under faults on a schedule and report what survived.
     ///
     /// The pods run as in `seam run`, on shared memory under a private prefix or, with

@@ -91,6 +91,7 @@ pub(crate) fn sweep(
     let free = accuracy::FreeRunning {
         rate,
         node_command: node_command()?,
+        hosts: seam_bench::run::HostsPlan::default(),
     };
     let mut progress = None;
     let results = seam_bench::sweep::run(&scenes, &grid, ticks, &free, |_, total, line| {
@@ -185,4 +186,57 @@ pub(crate) fn chaos(mut plan: ChaosPlan, output: Output) -> Result<(), String> {
     } else {
         Err("seam chaos: a target did not hold (see the report)".into())
     }
+}
+
+/// `seam network`: accuracy against a simulated delay between two hosts.
+pub(crate) fn network(
+    scenes: Vec<std::path::PathBuf>,
+    delays_ms: Vec<f64>,
+    jitter_ms: f64,
+    rate: f64,
+    redis: &str,
+    out: &std::path::Path,
+) -> Result<(), String> {
+    if delays_ms.iter().any(|d| !d.is_finite() || *d < 0.0)
+        || !jitter_ms.is_finite()
+        || jitter_ms < 0.0
+    {
+        return Err("--delays-ms and --jitter-ms must be non-negative numbers".into());
+    }
+    let paths: Vec<std::path::PathBuf> = if scenes.is_empty() {
+        ["crossfire", "gallery"]
+            .iter()
+            .map(|name| format!("bench/scenes/{name}.toml").into())
+            .collect()
+    } else {
+        scenes
+    };
+    let scenes = paths
+        .into_iter()
+        .map(|p| {
+            seam_bench::scene::load(&p)
+                .map(|scene| (p, scene))
+                .map_err(|e| format!("{e} (run from the repository root, or pass --scene FILE)"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let plan = seam_bench::network::NetworkPlan {
+        scenes,
+        delays_ms,
+        jitter_ms,
+        rate,
+        redis: expand_transport(redis),
+        node_command: node_command()?,
+    };
+    let mut progress = None;
+    let trials = seam_bench::network::run(&plan, |_, total, line| {
+        progress
+            .get_or_insert_with(|| Progress::new(Some(total as u64)))
+            .step(line);
+    })?;
+    drop(progress);
+    print!("{}", seam_bench::network::table(&trials));
+    for path in seam_bench::network::write(&trials, out)? {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
 }

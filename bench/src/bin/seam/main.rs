@@ -104,6 +104,14 @@ fn main() -> ExitCode {
             },
             output,
         ),
+        Command::Network {
+            scenes,
+            delays_ms,
+            jitter_ms,
+            rate,
+            redis,
+            out,
+        } => commands::network(scenes, delays_ms, jitter_ms, rate, &redis, &out),
         Command::Node(args) => node::stop_flag().and_then(|stop| {
             node::run_node(&args, &stop, &mut std::io::stdout().lock()).map(|_| ())
         }),

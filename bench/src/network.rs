@@ -1,0 +1,250 @@
+//! `seam network`: accuracy against the network between hosts.
+//!
+//! Each scene runs as free-running pods on two simulated hosts (see `seam run --hosts`), with
+//! the second host's traffic to and from Redis delayed by each of the delays asked for (a relay
+//! in front of Redis: this kernel has no `netem`, so the delay is simulated and labelled so),
+//! and is compared with a single-world run as the sweep's transport axis does: projectile hit
+//! recall, final position error, routed-op delay in ticks. Writes `network.csv` and one chart
+//! per scene, `accuracy_vs_delay_SCENE.svg`/`.png`.
+//!
+//! Hand-off jumps need the tick-by-tick comparison only lock-step runs give (`seam compare`);
+//! free-running pods report where bodies ended, so the chart shows the final position error.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use plotters::prelude::*;
+
+use crate::accuracy::{FreeRunning, TrialResult, TrialSettings, run_free_trial_on_hosts};
+use crate::relay::Delay;
+use crate::run::HostsPlan;
+use crate::scene::Scene;
+
+/// One trial: a scene at one delay.
+#[derive(Debug, Clone)]
+pub struct DelayTrial {
+    /// One-way delay added between host `b` and Redis, ms.
+    pub delay_ms: f64,
+    /// How the hosts were simulated.
+    pub simulated_as: String,
+    /// The comparison with the single world.
+    pub result: TrialResult,
+}
+
+/// What `seam network` runs.
+pub struct NetworkPlan {
+    /// Scenes (file, parsed).
+    pub scenes: Vec<(PathBuf, Scene)>,
+    /// One-way delays, ms.
+    pub delays_ms: Vec<f64>,
+    /// Jitter added to each delay, ms (uniform, order kept).
+    pub jitter_ms: f64,
+    /// Ticks per second of the pods.
+    pub rate: f64,
+    /// The Redis server between hosts.
+    pub redis: String,
+    /// The command that starts a pod (`[seam, "node"]`).
+    pub node_command: Vec<std::ffi::OsString>,
+}
+
+/// Runs every scene at every delay; `progress` hears each trial as it ends.
+pub fn run(
+    plan: &NetworkPlan,
+    mut progress: impl FnMut(usize, usize, &str),
+) -> Result<Vec<DelayTrial>, String> {
+    let total = plan.scenes.len() * plan.delays_ms.len();
+    let mut trials = Vec::new();
+    for (path, scene) in &plan.scenes {
+        for &delay_ms in &plan.delays_ms {
+            let free = FreeRunning {
+                rate: plan.rate,
+                node_command: plan.node_command.clone(),
+                hosts: HostsPlan {
+                    count: Some(2),
+                    redis: plan.redis.clone(),
+                    delay: Delay {
+                        base: Duration::from_secs_f64(delay_ms / 1e3),
+                        jitter: Duration::from_secs_f64(plan.jitter_ms / 1e3),
+                    },
+                    delayed_host: None,
+                    namespaces: true,
+                },
+            };
+            let run_id = crate::run::fresh_run_id();
+            let (result, simulated_as) = run_free_trial_on_hosts(
+                path,
+                scene,
+                &TrialSettings::default(),
+                "shm",
+                &free,
+                &run_id,
+            )
+            .map_err(|e| format!("{} at {delay_ms} ms: {e}", scene.name))?;
+            trials.push(DelayTrial {
+                delay_ms,
+                simulated_as: simulated_as.unwrap_or_default(),
+                result,
+            });
+            progress(
+                trials.len(),
+                total,
+                &format!("{} at {delay_ms} ms", scene.name),
+            );
+        }
+    }
+    Ok(trials)
+}
+
+/// The trials as text, one line each.
+pub fn table(trials: &[DelayTrial]) -> String {
+    let mut out = format!(
+        "{:<16} {:>9} | {:>10} {:>8} | {:>10} {:>9} | {:>5} {:>11} {:>11}\n",
+        "scene",
+        "delay ms",
+        "hit recall",
+        "hits",
+        "pos RMS m",
+        "pos max m",
+        "ops",
+        "op p50 tick",
+        "op max tick"
+    );
+    for t in trials {
+        let a = &t.result.accuracy;
+        let c = &t.result.cost;
+        out += &format!(
+            "{:<16} {:>9} | {:>10} {:>8} | {:>10.4} {:>9.3} | {:>5} {:>11} {:>11}\n",
+            t.result.scene,
+            t.delay_ms,
+            a.hit_recall.map_or("-".to_owned(), |r| format!("{r:.3}")),
+            format!("{}/{}", a.hits_matched, a.hits_reference),
+            a.position_rms_m,
+            a.position_max_m,
+            c.ops,
+            c.op_delay_p50_ticks,
+            c.op_delay_max_ticks
+        );
+    }
+    if let Some(t) = trials.first() {
+        out += &format!("hosts simulated as {}\n", t.simulated_as);
+    }
+    out
+}
+
+/// Writes `network.csv` and the charts into `out`; returns the files written.
+pub fn write(trials: &[DelayTrial], out: &Path) -> Result<Vec<PathBuf>, String> {
+    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let csv = out.join("network.csv");
+    let mut file =
+        std::fs::File::create(&csv).map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
+    let mut text = String::from(
+        "scene,delay_ms,hit_recall,hits_matched,hits_reference,position_rms_m,position_max_m,ops,op_delay_p50_ticks,op_delay_max_ticks,op_transport_p50_us,tick_p99_us,simulated_as\n",
+    );
+    for t in trials {
+        let a = &t.result.accuracy;
+        let c = &t.result.cost;
+        text += &format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            t.result.scene,
+            t.delay_ms,
+            a.hit_recall.map_or(String::new(), |r| r.to_string()),
+            a.hits_matched,
+            a.hits_reference,
+            a.position_rms_m,
+            a.position_max_m,
+            c.ops,
+            c.op_delay_p50_ticks,
+            c.op_delay_max_ticks,
+            c.op_transport_p50_us,
+            c.tick_p99_us,
+            t.simulated_as
+        );
+    }
+    file.write_all(text.as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
+    let mut written = vec![csv];
+    crate::sweep::chart_font()?;
+    let mut scenes: Vec<&str> = trials.iter().map(|t| t.result.scene.as_str()).collect();
+    scenes.dedup();
+    for scene in scenes {
+        let rows: Vec<&DelayTrial> = trials.iter().filter(|t| t.result.scene == scene).collect();
+        let svg = out.join(format!("accuracy_vs_delay_{scene}.svg"));
+        draw(
+            SVGBackend::new(&svg, SIZE).into_drawing_area(),
+            scene,
+            &rows,
+        )?;
+        let png = out.join(format!("accuracy_vs_delay_{scene}.png"));
+        draw(
+            BitMapBackend::new(&png, SIZE).into_drawing_area(),
+            scene,
+            &rows,
+        )?;
+        written.extend([svg, png]);
+    }
+    Ok(written)
+}
+
+const SIZE: (u32, u32) = (1200, 420);
+
+fn failed<E: std::fmt::Display>(e: E) -> String {
+    format!("cannot draw a chart: {e}")
+}
+
+/// Three panels against the delay: hit recall, routed-op delay in ticks, final position error.
+fn draw<DB: DrawingBackend>(
+    area: DrawingArea<DB, plotters::coord::Shift>,
+    scene: &str,
+    rows: &[&DelayTrial],
+) -> Result<(), String> {
+    area.fill(&WHITE).map_err(failed)?;
+    let area = area
+        .titled(
+            &format!("{scene}: two hosts, host b's traffic to Redis delayed (simulated)"),
+            ("sans-serif", 20),
+        )
+        .map_err(failed)?;
+    let panels = area.split_evenly((1, 3));
+    type Metric = fn(&DelayTrial) -> Option<f64>;
+    let metrics: [(&str, Metric); 3] = [
+        ("projectile hit recall", |t| t.result.accuracy.hit_recall),
+        ("routed-op delay p50, ticks", |t| {
+            Some(t.result.cost.op_delay_p50_ticks as f64)
+        }),
+        ("final position RMS, m", |t| {
+            Some(t.result.accuracy.position_rms_m)
+        }),
+    ];
+    let x_max = rows.iter().map(|t| t.delay_ms).fold(1.0, f64::max) * 1.05;
+    for (panel, (label, metric)) in panels.iter().zip(metrics) {
+        let points: Vec<(f64, f64)> = rows
+            .iter()
+            .filter_map(|t| metric(t).map(|y| (t.delay_ms, y)))
+            .collect();
+        let y_max = points.iter().map(|p| p.1).fold(0.0, f64::max).max(1e-3) * 1.2;
+        let mut chart = ChartBuilder::on(panel)
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..x_max, 0.0..y_max)
+            .map_err(failed)?;
+        chart
+            .configure_mesh()
+            .x_desc("one-way delay, host b ↔ Redis, ms")
+            .y_desc(label)
+            .axis_desc_style(("sans-serif", 14))
+            .draw()
+            .map_err(failed)?;
+        chart
+            .draw_series(LineSeries::new(
+                points.iter().copied(),
+                BLUE.stroke_width(2),
+            ))
+            .map_err(failed)?;
+        chart
+            .draw_series(points.iter().map(|&p| Circle::new(p, 4, BLUE.filled())))
+            .map_err(failed)?;
+    }
+    area.present().map_err(failed)
+}
