@@ -21,7 +21,8 @@ seam_tests::backend_tests!(
     receive_waits_without_spinning,
     wakes_on_publish_from_another_thread,
     advertise_prepares_publishing,
-    forward_keeps_the_envelope]
+    forward_keeps_the_envelope,
+    keyed_frames_refuse_strangers]
 );
 
 fn round_trip(ctx: &TestContext) {
@@ -469,11 +470,11 @@ fn forward_keeps_the_envelope(ctx: &TestContext) {
         received.iter().map(|m| m.origin.seq).collect::<Vec<_>>(),
         [1, 2, 3]
     );
-    assert!(received.iter().all(|m| m.origin
-        == seam_transport::Origin {
-            publisher: received[0].origin.publisher,
-            seq: m.origin.seq
-        }));
+    assert!(
+        received
+            .iter()
+            .all(|m| m.origin.publisher == received[0].origin.publisher)
+    );
     // Pass on the first and the third: the second is lost on the way.
     for message in [&received[0], &received[2]] {
         assert_eq!(
@@ -521,4 +522,70 @@ fn forward_keeps_the_envelope(ctx: &TestContext) {
     let own = receive(last_hop.as_mut(), PATIENCE).expect("arrives");
     assert_eq!(own.origin.seq, 1);
     assert_ne!(own.origin.publisher, first.origin.publisher);
+}
+
+/// A transport of this test's backend with a frame key (`None`: none).
+fn keyed(ctx: &TestContext, key: Option<&str>) -> Box<dyn seam_transport::Transport> {
+    let Some(key) = key else {
+        return ctx.open();
+    };
+    let url = match ctx.backend() {
+        Backend::Redis => format!("{}?key={key}", seam_tests::redis_url()),
+        _ => ctx.url_with(&format!("key={key}")),
+    };
+    seam_transport::open(&url).unwrap_or_else(|e| panic!("cannot open {url}: {e}"))
+}
+
+/// With a key set, a receiver hands over only messages tagged with it: frames from a
+/// publisher without the key, or with another, are dropped and counted by reason; a bridge
+/// without the key passes keyed frames on intact; and the key never shows in a redacted URL.
+fn keyed_frames_refuse_strangers(ctx: &TestContext) {
+    let channel = ctx.channel("keyed");
+    let mut receiver = keyed(ctx, Some("alpha"));
+    receiver.subscribe(&channel).expect("subscribe");
+    let mut friend = keyed(ctx, Some("alpha"));
+    let mut stranger = keyed(ctx, None);
+    let mut forger = keyed(ctx, Some("beta"));
+    for _ in 0..3 {
+        stranger.publish(&channel, b"no tag").expect("publish");
+        forger.publish(&channel, b"wrong key").expect("publish");
+    }
+    friend.publish(&channel, b"friend").expect("publish");
+    let message = receive(receiver.as_mut(), PATIENCE).expect("the keyed message arrives");
+    assert_eq!(message.payload, b"friend");
+    assert!(
+        receive(receiver.as_mut(), SILENCE).is_none(),
+        "nothing else"
+    );
+    let stats = receiver.stats();
+    assert_eq!(
+        (stats.untagged_drops, stats.bad_tag_drops),
+        (3, 3),
+        "{stats:?}"
+    );
+    assert_eq!(stats.received, 1);
+    // Through a bridge that has no key: the tag travels with the message.
+    let (onward, mut first_hop, mut bridge) =
+        (ctx.channel("keyed_on"), keyed(ctx, None), keyed(ctx, None));
+    let mut last_hop = keyed(ctx, Some("alpha"));
+    first_hop.subscribe(&channel).expect("subscribe");
+    last_hop.subscribe(&onward).expect("subscribe");
+    friend.publish(&channel, b"relayed").expect("publish");
+    let relayed = receive(first_hop.as_mut(), PATIENCE).expect("arrives unchecked");
+    bridge
+        .forward(&onward, relayed.origin, &relayed.payload)
+        .expect("forward");
+    // Forwarded to another channel the tag no longer matches (it binds the channel)...
+    assert!(receive(last_hop.as_mut(), SILENCE).is_none());
+    assert_eq!(last_hop.stats().bad_tag_drops, 1);
+    // ... and on its own channel it is accepted.
+    let mut same = keyed(ctx, Some("alpha"));
+    same.subscribe(&channel).expect("subscribe");
+    bridge
+        .forward(&channel, relayed.origin, &relayed.payload)
+        .expect("forward");
+    let through = receive(same.as_mut(), PATIENCE).expect("the keyed frame passes the bridge");
+    assert_eq!(through.payload, b"relayed");
+    let url = ctx.url_with("key=alpha");
+    assert!(!seam_transport::redact_url(&url).contains("alpha"), "{url}");
 }

@@ -1,7 +1,8 @@
 //! The envelope every seam message travels in, on every backend.
 //!
-//! It names the publishing transport, numbers the publisher's messages per channel and gives the
-//! payload length. Gaps in the numbering are how a receiver counts messages it lost to a full
+//! It names the publishing transport, numbers the publisher's messages per channel, gives the
+//! payload length and carries the message's keyed tag (all zero without a key; see
+//! [`crate::auth`]). Gaps in the numbering are how a receiver counts messages it lost to a full
 //! buffer; bytes that do not start with a valid envelope are counted as malformed and skipped.
 //! On shared memory the envelope is the iceoryx2 user header (the payload stays the caller's
 //! bytes, zero copy); on Redis it is the first [`Envelope::WIRE_LEN`] bytes of the message.
@@ -12,7 +13,7 @@ use std::hash::{BuildHasher, Hash, Hasher};
 use iceoryx2::prelude::ZeroCopySend;
 
 /// The envelope format version; a receiver drops envelopes of another version as malformed.
-pub const ENVELOPE_VERSION: u32 = 1;
+pub const ENVELOPE_VERSION: u32 = 2;
 const MAGIC: u32 = u32::from_le_bytes(*b"seam");
 
 /// Header of one message.
@@ -30,13 +31,15 @@ pub struct Envelope {
     pub seq: u64,
     /// Payload length in bytes (on shm the loaned slice may be longer).
     pub len: u64,
+    /// Keyed tag over the channel, the fields above and the payload (see [`crate::auth`]).
+    pub tag: crate::auth::Tag,
 }
 
 impl Envelope {
     /// Bytes the envelope takes on a byte-stream backend.
-    pub const WIRE_LEN: usize = 32;
+    pub const WIRE_LEN: usize = 48;
 
-    /// An envelope for message `seq` of `publisher` with `len` payload bytes.
+    /// An untagged envelope for message `seq` of `publisher` with `len` payload bytes.
     pub fn new(publisher: u64, seq: u64, len: usize) -> Self {
         Self {
             magic: MAGIC,
@@ -44,19 +47,40 @@ impl Envelope {
             publisher,
             seq,
             len: len as u64,
+            tag: [0; crate::auth::TAG_LEN],
         }
     }
 
-    /// The envelope of a message passed on unchanged: `origin`'s publisher and number.
-    pub fn forwarded(origin: crate::Origin, len: usize) -> Self {
-        Self::new(origin.publisher, origin.seq, len)
+    /// The envelope of message `seq` of `publisher` carrying `payload` on `channel`, tagged
+    /// with `key` if there is one.
+    pub(crate) fn sealed(
+        key: Option<&crate::auth::FrameKey>,
+        channel: &str,
+        publisher: u64,
+        seq: u64,
+        payload: &[u8],
+    ) -> Self {
+        let mut envelope = Self::new(publisher, seq, payload.len());
+        if let Some(key) = key {
+            envelope.tag = key.tag(channel, publisher, seq, payload);
+        }
+        envelope
     }
 
-    /// The publisher and number this envelope carries.
+    /// The envelope of a message passed on unchanged: `origin`'s publisher, number and tag.
+    pub fn forwarded(origin: crate::Origin, len: usize) -> Self {
+        Self {
+            tag: origin.tag,
+            ..Self::new(origin.publisher, origin.seq, len)
+        }
+    }
+
+    /// The publisher, number and tag this envelope carries.
     pub fn origin(&self) -> crate::Origin {
         crate::Origin {
             publisher: self.publisher,
             seq: self.seq,
+            tag: self.tag,
         }
     }
 
@@ -72,6 +96,7 @@ impl Envelope {
         out[8..16].copy_from_slice(&self.publisher.to_le_bytes());
         out[16..24].copy_from_slice(&self.seq.to_le_bytes());
         out[24..32].copy_from_slice(&self.len.to_le_bytes());
+        out[32..48].copy_from_slice(&self.tag);
     }
 
     /// Splits a wire message into its valid envelope and payload, or `None` if it is not one.
@@ -84,6 +109,7 @@ impl Envelope {
             publisher: word(8),
             seq: word(16),
             len: word(24),
+            tag: head[32..48].try_into().unwrap_or_default(),
         };
         (envelope.is_valid() && envelope.len == payload.len() as u64).then_some((envelope, payload))
     }
@@ -149,26 +175,63 @@ impl GapDetector {
     }
 }
 
-/// A transport's bookkeeping: the counters of [`crate::Stats`] and the sequence gaps that feed
-/// `overflow_drops`.
+/// A transport's bookkeeping: the counters of [`crate::Stats`], the sequence gaps that feed
+/// `overflow_drops`, and the frame key that checks tags.
 #[derive(Debug, Default)]
 pub(crate) struct Intake {
     gaps: GapDetector,
     /// The counters; backends add to `published` themselves.
     pub(crate) stats: crate::Stats,
+    /// The deployment's key: messages without its tag are dropped.
+    pub(crate) key: Option<crate::auth::FrameKey>,
 }
 
 impl Intake {
+    /// Bookkeeping that checks tags with `key`, if given.
+    pub(crate) fn with_key(key: Option<crate::auth::FrameKey>) -> Self {
+        Self {
+            key,
+            ..Self::default()
+        }
+    }
+
     /// The key of `channel` for [`Self::accept`] and [`Self::forget_channel`].
     pub(crate) fn channel_key(&self, channel: &str) -> u64 {
         self.gaps.channel_key(channel)
     }
 
-    /// Counts a valid message received on the channel with key `channel`, with the messages
-    /// lost before it.
-    pub(crate) fn accept(&mut self, channel: u64, envelope: &Envelope) {
+    /// Checks a well-formed message received on `name` (whose key is `channel`) against the
+    /// frame key, if there is one; counts it, with the messages lost before it, and returns
+    /// true if it may be handed over; counts the drop and returns false if not.
+    pub(crate) fn accept(
+        &mut self,
+        channel: u64,
+        name: &str,
+        envelope: &Envelope,
+        payload: &[u8],
+    ) -> bool {
+        if let Some(key) = &self.key {
+            match key.check(
+                name,
+                envelope.publisher,
+                envelope.seq,
+                payload,
+                &envelope.tag,
+            ) {
+                crate::auth::Verdict::Good => {}
+                crate::auth::Verdict::Untagged => {
+                    self.stats.untagged_drops += 1;
+                    return false;
+                }
+                crate::auth::Verdict::Wrong => {
+                    self.stats.bad_tag_drops += 1;
+                    return false;
+                }
+            }
+        }
         self.stats.overflow_drops += self.gaps.observe(channel, envelope);
         self.stats.received += 1;
+        true
     }
 
     /// Counts bytes that were not a valid seam message.

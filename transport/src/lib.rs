@@ -26,6 +26,7 @@
 //! - `iceoryx` — the generic iceoryx2 backend behind `shm` and `local`.
 //! - `redis` — the Redis backend.
 
+pub mod auth;
 mod channel;
 mod envelope;
 mod error;

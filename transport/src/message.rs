@@ -24,6 +24,8 @@ pub struct Origin {
     pub publisher: u64,
     /// The publisher's number for this message on its channel, from 1.
     pub seq: u64,
+    /// Its keyed tag (all zero from a publisher without a key; see [`crate::auth`]).
+    pub tag: crate::auth::Tag,
 }
 
 impl Message<'_> {

@@ -21,4 +21,10 @@ pub struct Stats {
     pub down_ns: u64,
     /// Publishes dropped because the server was unreachable.
     pub dropped_while_down: u64,
+    /// Messages dropped by a transport with a frame key because they carried no tag (their
+    /// publisher had no key).
+    pub untagged_drops: u64,
+    /// Messages dropped by a transport with a frame key because their tag was wrong (another
+    /// key, or changed on the way).
+    pub bad_tag_drops: u64,
 }

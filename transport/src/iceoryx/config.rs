@@ -25,6 +25,8 @@ pub struct IceoryxConfig {
     pub buffer: usize,
     /// How often pattern subscriptions look for new channels.
     pub discovery_interval: Duration,
+    /// The deployment's frame key (`key=` or `key_file=`; see [`crate::auth`]).
+    pub key: Option<crate::auth::FrameKey>,
 }
 
 impl Default for IceoryxConfig {
@@ -37,6 +39,7 @@ impl Default for IceoryxConfig {
             max_subscribers: 16,
             buffer: 16,
             discovery_interval: Duration::from_millis(50),
+            key: None,
         }
     }
 }
@@ -44,6 +47,10 @@ impl Default for IceoryxConfig {
 impl IceoryxConfig {
     /// Applies one `key=value` pair from a transport URL.
     pub(crate) fn set(&mut self, key: &str, value: &str) -> Result<(), String> {
+        if let Some(frame_key) = crate::auth::FrameKey::from_setting(key, value) {
+            self.key = Some(frame_key?);
+            return Ok(());
+        }
         let number = || {
             value
                 .parse::<usize>()

@@ -86,7 +86,6 @@ where
         node.try_cleanup_dead_nodes();
         Ok(Self {
             node,
-            config,
             backend,
             publisher_id: random_publisher_id(),
             outlets: HashMap::new(),
@@ -96,7 +95,8 @@ where
             next_discovery: Instant::now(),
             cursor: 0,
             current: None,
-            intake: Intake::default(),
+            intake: Intake::with_key(config.key.clone()),
+            config,
         })
     }
 
@@ -217,7 +217,13 @@ where
                     self.intake.malformed();
                     continue;
                 }
-                self.intake.accept(inlet.channel_key, &envelope);
+                let payload = &sample.payload()[..envelope.len as usize];
+                if !self
+                    .intake
+                    .accept(inlet.channel_key, &inlet.channel, &envelope, payload)
+                {
+                    continue;
+                }
                 self.cursor = index + 1;
                 self.current = Some((index, sample));
                 return Ok(true);
@@ -295,8 +301,9 @@ where
         check_publish(channel, capacity, self.config.max_payload)?;
         let publisher_id = self.publisher_id;
         let initial = self.config.initial_payload;
+        let key = self.intake.key.clone();
         let outlet = self.outlet(channel, initial)?;
-        let reached = outlet.send_with(publisher_id, capacity, write)?;
+        let reached = outlet.send_with(publisher_id, key.as_ref(), capacity, write)?;
         self.intake.stats.published += 1;
         Ok(reached)
     }
@@ -305,9 +312,10 @@ where
         check_publish(channel, payload.len(), self.config.max_payload)?;
         let publisher_id = self.publisher_id;
         let initial = self.config.initial_payload;
-        let reached = self
-            .outlet(channel, initial)?
-            .send_copy(publisher_id, payload)?;
+        let key = self.intake.key.clone();
+        let reached =
+            self.outlet(channel, initial)?
+                .send_copy(publisher_id, key.as_ref(), payload)?;
         self.intake.stats.published += 1;
         Ok(reached)
     }

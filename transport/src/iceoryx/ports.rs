@@ -1,5 +1,6 @@
 //! The iceoryx2 ports behind one channel: an outlet to publish, an inlet to receive.
 
+use crate::auth::FrameKey;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
@@ -125,6 +126,7 @@ impl<S: Service> Outlet<S> {
     pub(super) fn send_with(
         &mut self,
         publisher_id: u64,
+        key: Option<&FrameKey>,
         capacity: usize,
         write: &mut dyn FnMut(&mut [u8]) -> Option<usize>,
     ) -> Result<usize, PublishError> {
@@ -139,13 +141,14 @@ impl<S: Service> Outlet<S> {
         if written > capacity {
             return Err(PublishError::WriterOverrun { written, capacity });
         }
-        self.finish(publisher_id, written, sample)
+        self.finish(publisher_id, key, written, sample)
     }
 
     /// Copies `payload` into a loaned sample, sends it and wakes listeners.
     pub(super) fn send_copy(
         &mut self,
         publisher_id: u64,
+        key: Option<&FrameKey>,
         payload: &[u8],
     ) -> Result<usize, PublishError> {
         let sample = self
@@ -153,17 +156,25 @@ impl<S: Service> Outlet<S> {
             .loan_slice_uninit(payload.len())
             .map_err(|e| self.unavailable(e.to_string()))?;
         let sample = sample.write_from_slice(payload);
-        self.finish(publisher_id, payload.len(), sample)
+        self.finish(publisher_id, key, payload.len(), sample)
     }
 
     fn finish(
         &mut self,
         publisher_id: u64,
+        key: Option<&FrameKey>,
         written: usize,
         sample: SampleMut<S, [u8], Envelope>,
     ) -> Result<usize, PublishError> {
         self.seq += 1;
-        self.send(Envelope::new(publisher_id, self.seq, written), sample)
+        let envelope = Envelope::sealed(
+            key,
+            &self.channel,
+            publisher_id,
+            self.seq,
+            &sample.payload()[..written],
+        );
+        self.send(envelope, sample)
     }
 
     /// Copies a message received elsewhere into a loaned sample under its own envelope, sends

@@ -18,6 +18,8 @@ pub struct RedisConfig {
     pub reconnect: bool,
     /// Time a reconnect attempt may take.
     pub connect_timeout: Duration,
+    /// The deployment's frame key (`key=` or `key_file=`; see [`crate::auth`]).
+    pub key: Option<crate::auth::FrameKey>,
 }
 
 impl Default for RedisConfig {
@@ -27,6 +29,7 @@ impl Default for RedisConfig {
             timeout: Duration::from_secs(5),
             reconnect: true,
             connect_timeout: Duration::from_millis(250),
+            key: None,
         }
     }
 }
@@ -61,6 +64,10 @@ impl Endpoint {
                     .filter(|n| *n > 0)
                     .ok_or_else(|| invalid(format!("`{key}` must be a positive whole number")))
             };
+            if let Some(frame_key) = crate::auth::FrameKey::from_setting(key, value) {
+                config.key = Some(frame_key.map_err(invalid)?);
+                continue;
+            }
             match key {
                 "max_payload" => config.max_payload = number()? as usize,
                 "timeout_ms" => config.timeout = Duration::from_millis(number()?),
@@ -142,6 +149,26 @@ impl Endpoint {
 
 /// Replaces the password of `url` (if any) with `***`.
 pub fn redact_url(url: &str) -> String {
+    hide_key(&redact_password(url))
+}
+
+/// `url` with the value of a `key=` setting replaced by `***`.
+fn hide_key(url: &str) -> String {
+    let Some((base, query)) = url.split_once('?') else {
+        return url.to_owned();
+    };
+    let settings: Vec<String> = query
+        .split('&')
+        .map(|pair| match pair.split_once('=') {
+            Some(("key", _)) => "key=***".to_owned(),
+            _ => pair.to_owned(),
+        })
+        .collect();
+    format!("{base}?{}", settings.join("&"))
+}
+
+/// `url` with the password of its authority replaced by `***`.
+fn redact_password(url: &str) -> String {
     let Some(scheme_end) = url.find("://") else {
         return url.to_owned();
     };

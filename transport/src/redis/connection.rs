@@ -177,6 +177,7 @@ impl RedisTransport {
                             origin: crate::Origin {
                                 publisher: 0,
                                 seq: 0,
+                                tag: [0; crate::auth::TAG_LEN],
                             },
                         };
                         self.early.push_back(early);

@@ -75,6 +75,7 @@ impl RedisTransport {
     /// Connects to the Redis server named by `url`.
     pub fn open(url: &str) -> Result<Self, OpenError> {
         let (config, endpoint) = Endpoint::from_url(url)?;
+        let key = config.key.clone();
         let (publisher, socket) = endpoint.connect(config.timeout, config.timeout)?;
         let mut transport = Self {
             config,
@@ -88,7 +89,7 @@ impl RedisTransport {
             early: VecDeque::new(),
             current: None,
             discard: 0,
-            intake: Intake::default(),
+            intake: Intake::with_key(key),
             subscriptions: Vec::new(),
             outage: None,
         };
@@ -168,7 +169,14 @@ impl Transport for RedisTransport {
         }
         self.out.truncate(Envelope::WIRE_LEN + written);
         let seq = self.seqs.next(channel);
-        self.send(channel, Envelope::new(self.publisher_id, seq, written))
+        let envelope = Envelope::sealed(
+            self.config.key.as_ref(),
+            channel,
+            self.publisher_id,
+            seq,
+            &self.out[Envelope::WIRE_LEN..],
+        );
+        self.send(channel, envelope)
     }
 
     fn forward(

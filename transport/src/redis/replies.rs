@@ -89,8 +89,9 @@ pub(super) fn accept(
     match std::str::from_utf8(channel).ok().zip(Envelope::split(wire)) {
         Some((channel, (envelope, payload))) => {
             let key = intake.channel_key(channel);
-            intake.accept(key, &envelope);
-            Some((range_in(wire, payload), envelope.origin()))
+            intake
+                .accept(key, channel, &envelope, payload)
+                .then(|| (range_in(wire, payload), envelope.origin()))
         }
         None => {
             intake.malformed();
