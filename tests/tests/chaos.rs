@@ -1,6 +1,6 @@
 //! `seam chaos` end to end, short: crossfire pods over shared memory and over a private Redis
-//! server, killed and restarted, stopped and continued, the server restarted, garbage and
-//! forged frames in every channel — and every target holds.
+//! server (with a frame key), killed and restarted, stopped and continued, the server
+//! restarted, garbage and forged frames in every channel — and every target holds.
 
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
@@ -8,7 +8,7 @@ use std::time::Duration;
 use seam_bench::chaos::{self, ChaosPlan, ChaosReport};
 use seam_tests::{private_redis, scene_path};
 
-fn chaos_run(redis: bool) -> ChaosReport {
+fn chaos_run(redis: bool, key: Option<&str>) -> ChaosReport {
     let plan = ChaosPlan {
         scene: scene_path("crossfire.toml"),
         redis,
@@ -18,6 +18,7 @@ fn chaos_run(redis: bool) -> ChaosReport {
         layers: 1,
         seed: 7,
         node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
+        key: key.map(str::to_owned),
     };
     chaos::run(&plan, &AtomicBool::new(false), |_| {}).expect("seam chaos runs")
 }
@@ -36,7 +37,7 @@ fn assert_held(report: &ChaosReport) {
 
 #[test]
 fn chaos_on_shared_memory_loses_nothing() {
-    assert_held(&chaos_run(false));
+    assert_held(&chaos_run(false, None));
 }
 
 #[test]
@@ -45,8 +46,15 @@ fn chaos_on_redis_loses_nothing() {
     if private_redis().is_none() {
         return;
     }
-    let report = chaos_run(true);
+    // With a frame key: everything the injector (which has none) sends is dropped as untagged
+    // before a decoder sees it (`ChaosReport::accounted`).
+    let report = chaos_run(true, Some("chaos-key"));
+    assert!(report.keyed);
     assert_held(&report);
+    assert_eq!(
+        report.frames.untagged,
+        report.injected.garbage_deliveries + report.injected.forged_deliveries
+    );
     assert!(
         report.faults.redis_restart >= 1,
         "{}",

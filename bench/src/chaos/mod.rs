@@ -70,6 +70,9 @@ pub struct ChaosPlan {
     pub seed: u64,
     /// The command that starts a pod, before its flags: `[seam, "node"]`.
     pub node_command: Vec<OsString>,
+    /// A frame key for the pods (`key=` in their URL); the injector has none, so everything
+    /// it sends must be refused as untagged.
+    pub key: Option<String>,
 }
 
 /// A fault, and what it waits for.
@@ -154,9 +157,16 @@ pub fn run(
         None => format!("shm?prefix=seam_chaos_{}_", std::process::id()),
     };
     let ticks = (plan.duration.as_secs_f64() * plan.rate).ceil() as u64;
+    let pod_transport = match &plan.key {
+        Some(key) => {
+            let joiner = if transport.contains('?') { '&' } else { '?' };
+            format!("{transport}{joiner}key={key}")
+        }
+        None => transport.clone(),
+    };
     let run_plan = RunPlan {
         scene: plan.scene.clone(),
-        transport: transport.clone(),
+        transport: pod_transport,
         rate: plan.rate,
         ticks: Some(ticks),
         proxy_mode: ProxyModeArg::Fixed,
@@ -477,6 +487,7 @@ pub fn run(
         &run_id,
         report::Inputs {
             transport: seam_transport::redact_url(&transport),
+            keyed: plan.key.is_some(),
             redis: plan.redis,
             rate: plan.rate,
             duration_s: plan.duration.as_secs_f64(),

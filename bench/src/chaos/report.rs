@@ -200,6 +200,10 @@ pub struct FrameCounts {
     pub implausible: u64,
     /// Lost to a full receive buffer.
     pub overflow: u64,
+    /// Dropped by a pod with a frame key: no tag.
+    pub untagged: u64,
+    /// Dropped by a pod with a frame key: a wrong tag.
+    pub bad_tag: u64,
     /// States ignored (claims on another cluster's entity, NaN, absurd values).
     pub states_rejected: u64,
 }
@@ -275,6 +279,8 @@ pub struct ChaosReport {
     pub failed_faults: Vec<String>,
     /// Fault kinds the run planned and never injected.
     pub faults_missing: Vec<String>,
+    /// Whether the pods had a frame key (and the injector none).
+    pub keyed: bool,
     /// Bad frames injected.
     pub injected: InjectCounts,
     /// Frames, every pod incarnation summed (the killed ones by their last progress line).
@@ -298,6 +304,8 @@ pub struct ChaosReport {
 /// What [`ChaosReport::new`] is made from.
 pub(super) struct Inputs<'a> {
     pub transport: String,
+    /// The pods had a frame key (the injector had none).
+    pub keyed: bool,
     /// Redis restarts were planned.
     pub redis: bool,
     pub rate: f64,
@@ -334,6 +342,8 @@ impl ChaosReport {
             s += stats;
             frames.malformed += t.malformed_drops;
             frames.overflow += t.overflow_drops;
+            frames.untagged += t.untagged_drops;
+            frames.bad_tag += t.bad_tag_drops;
             recovery.disconnects += t.disconnects;
             recovery.reconnects += t.reconnects;
             recovery.down_s += t.down_ns as f64 / 1e9;
@@ -369,6 +379,7 @@ impl ChaosReport {
             faults: inputs.faults,
             failed_faults: inputs.failed_faults,
             faults_missing: inputs.faults.missing(inputs.redis),
+            keyed: inputs.keyed,
             injected: inputs.injected,
             frames,
             ops,
@@ -386,11 +397,20 @@ impl ChaosReport {
         self.frames.malformed + self.frames.wrong_version + self.frames.wrong_sender
     }
 
-    /// Whether every injected frame is accounted for: each garbage delivery refused, each
-    /// forged one seen as a replay.
+    /// Whether every injected frame is accounted for. Without a key: each garbage delivery
+    /// refused, each forged one seen as a replay. With one: every delivery of either kind
+    /// dropped as untagged before decoding, and none reaching the decoders.
     pub fn accounted(&self) -> bool {
-        self.garbage_refused() == self.injected.garbage_deliveries
-            && self.frames.replayed == self.injected.forged_deliveries
+        let i = &self.injected;
+        if self.keyed {
+            self.frames.untagged == i.garbage_deliveries + i.forged_deliveries
+                && self.garbage_refused() == 0
+                && self.frames.replayed == 0
+                && self.frames.bad_tag == 0
+        } else {
+            self.garbage_refused() == i.garbage_deliveries
+                && self.frames.replayed == i.forged_deliveries
+        }
     }
 
     /// Whether every entity adopted from a dead or stopped pod, and every hand-off to it taken
@@ -447,24 +467,37 @@ pub fn table(r: &ChaosReport) -> String {
     }
     let i = &r.injected;
     let mark = |ok: bool| if ok { "" } else { "  <-- MISMATCH" };
-    out += &format!(
-        "{:<34} {:>9} {:>9}  delivered {}, refused {}{}\n",
-        "garbage frames",
-        i.garbage_frames,
-        "-",
-        i.garbage_deliveries,
-        r.garbage_refused(),
-        mark(r.garbage_refused() == i.garbage_deliveries)
-    );
-    out += &format!(
-        "{:<34} {:>9} {:>9}  delivered {}, seen as replays {}{}\n\n",
-        "forged ownership claims",
-        i.forged_frames,
-        "-",
-        i.forged_deliveries,
-        r.frames.replayed,
-        mark(r.frames.replayed == i.forged_deliveries)
-    );
+    if r.keyed {
+        out += &format!(
+            "frames from a process without the key: {} garbage and {} forged published, {} \
+             delivered, {} dropped untagged before decoding (decoders saw {}){}\n\n",
+            i.garbage_frames,
+            i.forged_frames,
+            i.garbage_deliveries + i.forged_deliveries,
+            r.frames.untagged,
+            r.garbage_refused() + r.frames.replayed,
+            mark(r.accounted())
+        );
+    } else {
+        out += &format!(
+            "{:<34} {:>9} {:>9}  delivered {}, refused {}{}\n",
+            "garbage frames",
+            i.garbage_frames,
+            "-",
+            i.garbage_deliveries,
+            r.garbage_refused(),
+            mark(r.garbage_refused() == i.garbage_deliveries)
+        );
+        out += &format!(
+            "{:<34} {:>9} {:>9}  delivered {}, seen as replays {}{}\n\n",
+            "forged ownership claims",
+            i.forged_frames,
+            "-",
+            i.forged_deliveries,
+            r.frames.replayed,
+            mark(r.frames.replayed == i.forged_deliveries)
+        );
+    }
     let o = &r.ownership;
     out += &format!(
         "entities: {} expected, {} owned once, {} lost, {} owned twice{}\n",
@@ -619,8 +652,19 @@ pub fn markdown(r: &ChaosReport) -> String {
         } else {
             "—".to_owned()
         },
-        pair(r.injected.garbage_deliveries, r.garbage_refused()),
-        pair(r.injected.forged_deliveries, r.frames.replayed),
+        if r.keyed {
+            pair(
+                r.injected.garbage_deliveries + r.injected.forged_deliveries,
+                r.frames.untagged,
+            )
+        } else {
+            pair(r.injected.garbage_deliveries, r.garbage_refused())
+        },
+        if r.keyed {
+            "(untagged)".to_owned()
+        } else {
+            pair(r.injected.forged_deliveries, r.frames.replayed)
+        },
         format!(
             "{} / {} / {} / {}",
             grouped(o.expected as u64),

@@ -79,6 +79,12 @@ pub struct TransportCounts {
     pub down_ns: u64,
     /// Publishes dropped without a server.
     pub dropped_while_down: u64,
+    /// Messages without a tag dropped by a transport with a frame key.
+    #[serde(default)]
+    pub untagged_drops: u64,
+    /// Messages with a wrong tag dropped by a transport with a frame key.
+    #[serde(default)]
+    pub bad_tag_drops: u64,
 }
 
 impl From<seam_transport::Stats> for TransportCounts {
@@ -92,6 +98,8 @@ impl From<seam_transport::Stats> for TransportCounts {
             reconnects: s.reconnects,
             down_ns: s.down_ns,
             dropped_while_down: s.dropped_while_down,
+            untagged_drops: s.untagged_drops,
+            bad_tag_drops: s.bad_tag_drops,
         }
     }
 }

@@ -177,6 +177,11 @@ pub(crate) enum Command {
         /// Seeds which pod each fault hits and the garbage.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Give the pods this frame key (`key=` in their URL): the injector, a process without
+        /// it, must then see every garbage and forged frame dropped as untagged before any
+        /// decoder reads it.
+        #[arg(long)]
+        key: Option<String>,
         #[command(flatten)]
         output: Output,
     },

@@ -90,6 +90,7 @@ fn main() -> ExitCode {
             rate,
             layers,
             seed,
+            key,
             output,
         } => chaos(
             ChaosPlan {
@@ -101,6 +102,7 @@ fn main() -> ExitCode {
                 layers,
                 seed,
                 node_command: Vec::new(),
+                key,
             },
             output,
         ),
