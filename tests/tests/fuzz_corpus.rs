@@ -52,6 +52,20 @@ fn the_seeds_hold_whole_and_delta_frames() {
     assert!(kinds.contains(&true) && kinds.contains(&false), "{kinds:?}");
 }
 
+/// A seed starts the envelope fuzzer on the current envelope version, tag included.
+#[test]
+fn an_envelope_seed_is_a_current_tagged_envelope() {
+    let bytes = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds/envelope/tagged_v2"),
+    )
+    .expect("the seed");
+    let (envelope, payload) =
+        seam_transport::Envelope::split(&bytes).expect("the seed is a valid envelope");
+    assert_eq!(envelope.version, seam_transport::ENVELOPE_VERSION);
+    assert_ne!(envelope.tag, [0; seam_transport::auth::TAG_LEN]);
+    assert_eq!(payload, b"frame bytes");
+}
+
 #[test]
 fn events_frame_inputs_pass() {
     replay("events_frame", checks::events_frame);
