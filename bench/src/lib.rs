@@ -8,7 +8,11 @@
 //!   `commands.rs` (what each does beyond its module: progress, printing, exit status),
 //!   `main.rs` (dispatch).
 //! - [`run`] — `seam run`: starts one pod per cluster of a scene, shows progress, merges their
-//!   reports.
+//!   reports; with `--hosts N`, on simulated hosts (network namespaces as root) with a bridge
+//!   each.
+//! - [`bridge`] — `seam bridge`: one host's bridge between its shared memory and Redis.
+//! - [`relay`] — a TCP relay with a configurable delay (simulated hosts reach Redis through it).
+//! - [`network`] — `seam network`: accuracy against a simulated delay between two hosts.
 //! - [`chaos`] — `seam chaos`: the pods under faults on a schedule (kills, stops, Redis
 //!   restarts, garbage and forged frames) and what survived.
 //! - [`node`] — `seam node`: one pod, ticking on a schedule and sleeping on its transport.
@@ -22,7 +26,7 @@
 //! - [`console`] — stderr: `tracing` logs (`RUST_LOG`) and progress (a bar on a terminal, plain
 //!   lines otherwise), logs printed above the bar.
 //! - [`redis_server`] — a private `redis-server` child that runs and tests can crash and
-//!   restart.
+//!   restart, and a Redis server's CPU time (`INFO cpu`).
 //! - [`scene`] — the scene format (`bench/scenes/*.toml`) and its checks.
 //! - [`wait`] — spinning or sleeping for the next message ([`wait::WaitMode`]).
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.

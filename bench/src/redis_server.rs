@@ -93,3 +93,64 @@ impl Drop for RedisServer {
         self.kill();
     }
 }
+
+/// CPU time the Redis server at `url` has used since it started (`INFO cpu`: user + system),
+/// seconds; `None` if it cannot be asked (not a TCP URL, unreachable, refused).
+pub fn server_cpu_s(url: &str) -> Option<f64> {
+    use std::io::{Read, Write};
+    let rest = url.strip_prefix("redis://")?;
+    let authority = rest.split(['/', '?']).next()?;
+    let (credentials, hostport) = match authority.rsplit_once('@') {
+        Some((c, h)) => (Some(c), h),
+        None => (None, authority),
+    };
+    let hostport = if hostport.contains(':') {
+        hostport.to_owned()
+    } else {
+        format!("{hostport}:6379")
+    };
+    let addr = std::net::ToSocketAddrs::to_socket_addrs(&hostport)
+        .ok()?
+        .next()?;
+    let mut stream = TcpStream::connect_timeout(&addr, std::time::Duration::from_secs(1)).ok()?;
+    stream
+        .set_read_timeout(Some(std::time::Duration::from_secs(2)))
+        .ok()?;
+    let command = |args: &[&str]| {
+        let mut out = format!("*{}\r\n", args.len());
+        for arg in args {
+            out += &format!("${}\r\n{arg}\r\n", arg.len());
+        }
+        out
+    };
+    let mut request = String::new();
+    if let Some(credentials) = credentials {
+        request += &match credentials.split_once(':') {
+            Some(("", password)) => command(&["AUTH", password]),
+            Some((user, password)) => command(&["AUTH", user, password]),
+            None => command(&["AUTH", credentials]),
+        };
+    }
+    request += &command(&["INFO", "cpu"]);
+    stream.write_all(request.as_bytes()).ok()?;
+    let mut reply = Vec::new();
+    let mut buf = [0u8; 4096];
+    // The answer is small; read until both figures are in.
+    for _ in 0..16 {
+        let n = stream.read(&mut buf).ok()?;
+        if n == 0 {
+            break;
+        }
+        reply.extend_from_slice(&buf[..n]);
+        let text = String::from_utf8_lossy(&reply);
+        let field = |name: &str| {
+            text.lines()
+                .find_map(|l| l.strip_prefix(name))
+                .and_then(|v| v.trim().parse::<f64>().ok())
+        };
+        if let (Some(user), Some(system)) = (field("used_cpu_user:"), field("used_cpu_sys:")) {
+            return Some(user + system);
+        }
+    }
+    None
+}

@@ -256,6 +256,18 @@ pub fn run_pods(
     let panics = Arc::new(AtomicU64::new(0));
     let mut forwarders = Vec::new();
     let pods_n = scene.clusters.len() as u64;
+    let redis_url = if plan.transport.starts_with("redis://") {
+        Some(plan.transport.as_str())
+    } else if scene
+        .host_layout(plan.hosts.count)?
+        .iter()
+        .any(|h| h != "a")
+    {
+        Some(plan.hosts.redis.as_str())
+    } else {
+        None
+    };
+    let redis_cpu_start = redis_url.and_then(crate::redis_server::server_cpu_s);
     let bridges = hosts::Bridges::start(plan, &scene)?;
     let start_at = start_at.max(monotonic_ns() + plan.start_delay.as_nanos() as u64);
     for (index, cluster) in scene.clusters.iter().enumerate() {
@@ -371,6 +383,10 @@ pub fn run_pods(
         wall_s,
         &complete,
     );
+    report.redis_cpu_s = redis_url
+        .and_then(crate::redis_server::server_cpu_s)
+        .zip(redis_cpu_start)
+        .map(|(end, start)| end - start);
     report.hosts = hosts.map(|mut hosts| {
         hosts.split_ops(&scene, &complete);
         hosts

@@ -90,6 +90,9 @@ pub struct RunReport {
     pub ops: OpStagesSummary,
     /// Whether every entity ended with exactly one owner.
     pub ownership: Ownership,
+    /// CPU the Redis server used during the run, s (runs on Redis, or on several hosts).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub redis_cpu_s: Option<f64>,
     /// The hosts of a run on several, and their bridges.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub hosts: Option<super::HostsSummary>,
@@ -147,6 +150,7 @@ impl RunReport {
             totals,
             ops: all_ops.summary(),
             ownership: super::ownership::check(scene, &plan.run_id, reports),
+            redis_cpu_s: None,
             hosts: None,
         }
     }
@@ -299,6 +303,12 @@ pub fn table(report: &RunReport) -> String {
     if let Some(hosts) = &report.hosts {
         out += &hosts_lines(hosts);
     }
+    if let Some(cpu) = report.redis_cpu_s {
+        out += &format!(
+            "Redis server: {cpu:.2} s of CPU during the run, {:.1} % of a core\n",
+            100.0 * cpu / report.wall_s.max(1e-9)
+        );
+    }
     let o = &report.ownership;
     out += &format!(
         "ownership: {} entities expected, {} owned by exactly one pod, {} lost, {} owned twice{}\n",
@@ -446,6 +456,13 @@ pub fn markdown(report: &RunReport) -> String {
         }
         out += "\n";
         out += &crossing.render();
+    }
+    if let Some(cpu) = report.redis_cpu_s {
+        out += &format!(
+            "\nRedis server: {cpu:.2} s of CPU over the run's {:.1} s ({:.1} % of a core).\n",
+            report.wall_s,
+            100.0 * cpu / report.wall_s.max(1e-9)
+        );
     }
     out
 }
