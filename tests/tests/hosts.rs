@@ -259,3 +259,40 @@ fn a_dead_host_is_adopted_across_hosts() {
     let ownership = seam_bench::run::ownership::check(&scene, &run_id, &[west]);
     assert!(ownership.holds(), "{ownership:?}");
 }
+
+/// The Redis server between two hosts dies for a second and a half and comes back: each host
+/// takes the other's clusters for dead and adopts what they owned, the bridges reconnect on
+/// their own, each side hands back what it adopted when the other is heard again, and every
+/// entity ends with one owner.
+#[test]
+fn a_redis_outage_between_hosts_is_ridden_out() {
+    let Some(mut server) = seam_tests::private_redis() else {
+        return;
+    };
+    let Some(mut plan) = plan("crossfire.toml", 2, 120.0, 720) else {
+        return;
+    };
+    plan.hosts.redis = server.url();
+    let stop = std::sync::Arc::new(AtomicBool::new(false));
+    let running = {
+        let stop = std::sync::Arc::clone(&stop);
+        std::thread::spawn(move || run::run(&plan, &stop, |_| {}))
+    };
+    std::thread::sleep(Duration::from_millis(2500));
+    server.kill();
+    std::thread::sleep(Duration::from_millis(1500));
+    server.restart().expect("the server comes back");
+    let report = running
+        .join()
+        .expect("the run thread")
+        .unwrap_or_else(|e| panic!("crossfire through an outage: {e}"));
+    let text = run::table(&report);
+    let c = &report.totals.cluster;
+    assert!(c.neighbours_lost >= 1, "the outage was felt\n{text}");
+    assert_eq!(c.neighbours_rejoined, c.neighbours_lost, "{text}");
+    assert!(
+        c.entities_adopted > 0 && c.entities_returned == c.entities_adopted + c.handoffs_reclaimed,
+        "what was adopted went back\n{text}"
+    );
+    assert!(report.ownership.holds(), "{:?}\n{text}", report.ownership);
+}
