@@ -28,6 +28,8 @@ pub struct FreeRunning {
     pub node_command: Vec<OsString>,
     /// The hosts the pods run on (one, unless set).
     pub hosts: crate::run::HostsPlan,
+    /// Tick every pod at the same moment instead of staggering them (see `RunPlan::in_phase`).
+    pub in_phase: bool,
 }
 
 /// Runs the scene at `scene_path` as free-running pods over `transport` with the proxy mode and
@@ -75,7 +77,7 @@ pub fn run_free_trial_on_hosts(
         run_id: run_id.to_owned(),
         node_command: free.node_command.clone(),
         start_delay: Duration::from_millis(500),
-        in_phase: false,
+        in_phase: free.in_phase,
         hosts: free.hosts.clone(),
     };
     let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})?;

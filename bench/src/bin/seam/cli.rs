@@ -137,6 +137,10 @@ pub(crate) enum Command {
         /// Ticks per second of the pods.
         #[arg(long, default_value_t = 60.0)]
         rate: f64,
+        /// Tick both pods at the same moment (default: staggered by half a period, as `seam
+        /// run`), which makes every routed op wait a tick whatever the delay.
+        #[arg(long)]
+        in_phase: bool,
         /// The Redis server between hosts (on this machine's loopback).
         #[arg(long, default_value = "redis://127.0.0.1:6379")]
         redis: String,

@@ -92,6 +92,7 @@ pub(crate) fn sweep(
         rate,
         node_command: node_command()?,
         hosts: seam_bench::run::HostsPlan::default(),
+        in_phase: false,
     };
     let mut progress = None;
     let results = seam_bench::sweep::run(&scenes, &grid, ticks, &free, |_, total, line| {
@@ -189,11 +190,13 @@ pub(crate) fn chaos(mut plan: ChaosPlan, output: Output) -> Result<(), String> {
 }
 
 /// `seam network`: accuracy against a simulated delay between two hosts.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn network(
     scenes: Vec<std::path::PathBuf>,
     delays_ms: Vec<f64>,
     jitter_ms: f64,
     rate: f64,
+    in_phase: bool,
     redis: &str,
     out: &std::path::Path,
 ) -> Result<(), String> {
@@ -224,6 +227,7 @@ pub(crate) fn network(
         delays_ms,
         jitter_ms,
         rate,
+        in_phase,
         redis: expand_transport(redis),
         node_command: node_command()?,
     };

@@ -111,9 +111,10 @@ fn main() -> ExitCode {
             delays_ms,
             jitter_ms,
             rate,
+            in_phase,
             redis,
             out,
-        } => commands::network(scenes, delays_ms, jitter_ms, rate, &redis, &out),
+        } => commands::network(scenes, delays_ms, jitter_ms, rate, in_phase, &redis, &out),
         Command::Node(args) => node::stop_flag().and_then(|stop| {
             node::run_node(&args, &stop, &mut std::io::stdout().lock()).map(|_| ())
         }),
