@@ -4,11 +4,13 @@
 //! the second host's traffic to and from Redis delayed by each of the delays asked for (a relay
 //! in front of Redis: this kernel has no `netem`, so the delay is simulated and labelled so),
 //! and is compared with a single-world run as the sweep's transport axis does: projectile hit
-//! recall, final position error, routed-op delay in ticks. Writes `network.csv` and one chart
+//! recall, final position error, routed-op delay in ticks, hand-off jumps. Writes `network.csv` and one chart
 //! per scene, `accuracy_vs_delay_SCENE.svg`/`.png`.
 //!
-//! Hand-off jumps need the tick-by-tick comparison only lock-step runs give (`seam compare`);
-//! free-running pods report where bodies ended, so the chart shows the final position error.
+//! Hand-off jumps are judged as `seam compare` judges them, from the states the pods record at
+//! every authority flip (`seam node --track-flips`) against the single world's at the same
+//! ticks: how far a body's motion from its old owner's last state to its new owner's first
+//! departs from the single world's.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -102,7 +104,7 @@ pub fn run(
 /// The trials as text, one line each.
 pub fn table(trials: &[DelayTrial]) -> String {
     let mut out = format!(
-        "{:<16} {:>9} | {:>10} {:>8} | {:>10} {:>9} | {:>5} {:>11} {:>11}\n",
+        "{:<16} {:>9} | {:>10} {:>8} | {:>10} {:>9} | {:>5} {:>11} {:>11} | {:>9} {:>10}\n",
         "scene",
         "delay ms",
         "hit recall",
@@ -111,13 +113,15 @@ pub fn table(trials: &[DelayTrial]) -> String {
         "pos max m",
         "ops",
         "op p50 tick",
-        "op max tick"
+        "op max tick",
+        "hand-offs",
+        "jump m, m/s"
     );
     for t in trials {
         let a = &t.result.accuracy;
         let c = &t.result.cost;
         out += &format!(
-            "{:<16} {:>9} | {:>10} {:>8} | {:>10.4} {:>9.3} | {:>5} {:>11} {:>11}\n",
+            "{:<16} {:>9} | {:>10} {:>8} | {:>10.4} {:>9.3} | {:>5} {:>11} {:>11} | {:>9} {:>10}\n",
             t.result.scene,
             t.delay_ms,
             a.hit_recall.map_or("-".to_owned(), |r| format!("{r:.3}")),
@@ -126,7 +130,12 @@ pub fn table(trials: &[DelayTrial]) -> String {
             a.position_max_m,
             c.ops,
             c.op_delay_p50_ticks,
-            c.op_delay_max_ticks
+            c.op_delay_max_ticks,
+            format!("{} ({} untracked)", a.handoffs, a.handoffs_untracked),
+            format!(
+                "{:.4}, {:.3}",
+                a.handoff_jump_position_m, a.handoff_jump_velocity_mps
+            )
         );
     }
     if let Some(t) = trials.first() {
@@ -142,13 +151,13 @@ pub fn write(trials: &[DelayTrial], out: &Path) -> Result<Vec<PathBuf>, String> 
     let mut file =
         std::fs::File::create(&csv).map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
     let mut text = String::from(
-        "scene,delay_ms,hit_recall,hits_matched,hits_reference,position_rms_m,position_max_m,ops,op_delay_p50_ticks,op_delay_max_ticks,op_transport_p50_us,tick_p99_us,simulated_as\n",
+        "scene,delay_ms,hit_recall,hits_matched,hits_reference,position_rms_m,position_max_m,ops,op_delay_p50_ticks,op_delay_max_ticks,op_transport_p50_us,tick_p99_us,handoffs,handoffs_untracked,handoff_jump_position_m,handoff_jump_velocity_mps,simulated_as\n",
     );
     for t in trials {
         let a = &t.result.accuracy;
         let c = &t.result.cost;
         text += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
             t.result.scene,
             t.delay_ms,
             a.hit_recall.map_or(String::new(), |r| r.to_string()),
@@ -161,6 +170,10 @@ pub fn write(trials: &[DelayTrial], out: &Path) -> Result<Vec<PathBuf>, String> 
             c.op_delay_max_ticks,
             c.op_transport_p50_us,
             c.tick_p99_us,
+            a.handoffs,
+            a.handoffs_untracked,
+            a.handoff_jump_position_m,
+            a.handoff_jump_velocity_mps,
             t.simulated_as
         );
     }
@@ -189,13 +202,14 @@ pub fn write(trials: &[DelayTrial], out: &Path) -> Result<Vec<PathBuf>, String> 
     Ok(written)
 }
 
-const SIZE: (u32, u32) = (1200, 420);
+const SIZE: (u32, u32) = (1600, 420);
 
 fn failed<E: std::fmt::Display>(e: E) -> String {
     format!("cannot draw a chart: {e}")
 }
 
-/// Three panels against the delay: hit recall, routed-op delay in ticks, final position error.
+/// Four panels against the delay: hit recall, routed-op delay in ticks, the largest hand-off
+/// jump, final position error.
 fn draw<DB: DrawingBackend>(
     area: DrawingArea<DB, plotters::coord::Shift>,
     scene: &str,
@@ -208,12 +222,15 @@ fn draw<DB: DrawingBackend>(
             ("sans-serif", 20),
         )
         .map_err(failed)?;
-    let panels = area.split_evenly((1, 3));
+    let panels = area.split_evenly((1, 4));
     type Metric = fn(&DelayTrial) -> Option<f64>;
-    let metrics: [(&str, Metric); 3] = [
+    let metrics: [(&str, Metric); 4] = [
         ("projectile hit recall", |t| t.result.accuracy.hit_recall),
         ("routed-op delay p50, ticks", |t| {
             Some(t.result.cost.op_delay_p50_ticks as f64)
+        }),
+        ("largest hand-off jump, m", |t| {
+            Some(t.result.accuracy.handoff_jump_position_m)
         }),
         ("final position RMS, m", |t| {
             Some(t.result.accuracy.position_rms_m)

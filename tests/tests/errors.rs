@@ -280,6 +280,7 @@ fn redis_user_and_password_in_the_url_work() {
             start_delay: Duration::from_millis(300),
             in_phase: false,
             hosts: seam_bench::run::HostsPlan::default(),
+            track_flips: false,
         };
         // While they run, the process list shows each pod's command line: no password there.
         let mut pods_seen = 0;

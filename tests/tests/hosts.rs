@@ -45,6 +45,7 @@ fn plan(scene: &str, hosts: u32, rate: f64, ticks: u64) -> Option<RunPlan> {
             redis: redis_url(),
             ..HostsPlan::default()
         },
+        track_flips: false,
     })
 }
 
@@ -295,4 +296,33 @@ fn a_redis_outage_between_hosts_is_ridden_out() {
         "what was adopted went back\n{text}"
     );
     assert!(report.ownership.holds(), "{:?}\n{text}", report.ownership);
+}
+
+/// `seam network` on `crossfire` at one delay: the pods record every authority flip and the
+/// hand-offs are judged against the single world (none left untracked), with every hit.
+#[test]
+fn network_trials_judge_every_hand_off() {
+    let (Some(_redis), Some(_shm)) = (
+        TestContext::new(Backend::Redis),
+        TestContext::new(Backend::Shm),
+    ) else {
+        return;
+    };
+    let path = scene_path("crossfire.toml");
+    let scene = seam_bench::scene::load(&path).expect("scene");
+    let plan = seam_bench::network::NetworkPlan {
+        scenes: vec![(path, scene)],
+        delays_ms: vec![2.0],
+        jitter_ms: 0.0,
+        rate: 240.0,
+        in_phase: false,
+        redis: redis_url(),
+        node_command: vec![NODE.into()],
+    };
+    let trials = seam_bench::network::run(&plan, |_, _, _| {}).expect("a network trial");
+    let text = seam_bench::network::table(&trials);
+    let a = &trials[0].result.accuracy;
+    assert!(a.handoffs >= 1, "{text}");
+    assert_eq!(a.handoffs_untracked, 0, "every hand-off judged\n{text}");
+    assert_eq!(a.hit_recall, Some(1.0), "{text}");
 }

@@ -39,6 +39,7 @@ fn plan(scene_name: &str, transport: String, rate: f64, ticks: u64) -> RunPlan {
         start_delay: Duration::from_millis(500),
         in_phase: false,
         hosts: seam_bench::run::HostsPlan::default(),
+        track_flips: false,
     }
 }
 

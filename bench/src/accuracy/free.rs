@@ -79,6 +79,7 @@ pub fn run_free_trial_on_hosts(
         start_delay: Duration::from_millis(500),
         in_phase: free.in_phase,
         hosts: free.hosts.clone(),
+        track_flips: true,
     };
     let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})?;
 
@@ -97,8 +98,22 @@ pub fn run_free_trial_on_hosts(
         },
     )
     .map_err(|e| format!("reference: {e}"))?;
+    // The reference states each recorded flip is judged against: (entity, tick).
+    let mut wanted: std::collections::HashMap<u64, Vec<EntityId>> = Default::default();
+    for flip in nodes.iter().flat_map(|n| &n.flips) {
+        wanted.entry(flip.tick).or_default().push(flip.entity);
+    }
+    let mut truth_at: TruthAt = Default::default();
     for _ in 0..ticks {
         reference.tick().map_err(|e| format!("reference: {e}"))?;
+        let sim = reference.cluster().sim();
+        if let Some(ids) = wanted.get(&sim.tick()) {
+            for &id in ids {
+                if let Some(state) = sim.state(id) {
+                    truth_at.insert((id, sim.tick()), (state.position, state.linvel));
+                }
+            }
+        }
     }
 
     let mut accuracy = Accuracy::default();
@@ -151,7 +166,7 @@ pub fn run_free_trial_on_hosts(
     } else {
         0.0
     };
-    accuracy.handoffs = report.totals.cluster.handoffs_in;
+    judge_flips(&nodes, &truth_at, &mut accuracy);
 
     let ran = report
         .pods
@@ -207,4 +222,66 @@ pub fn run_free_trial_on_hosts(
         },
     };
     Ok((result, simulated_as))
+}
+
+/// The single world's position and velocity of a body at a tick.
+type TruthAt = std::collections::HashMap<(EntityId, u64), ([f32; 3], [f32; 3])>;
+
+/// Judges every flip the pods recorded as `seam compare` judges a hand-off: for a body that was
+/// within [`super::TRACKED_M`] of its single-world copy when its old owner last had it, how far
+/// its motion from that state to its new owner's first state departs from the single world's
+/// over the same ticks (position and velocity). Bodies first owned with no owner before them
+/// (spawned, or adopted from a pod whose records died with it) are not hand-offs; hand-offs
+/// of bodies already off track, or gone from the single world, are counted as untracked.
+fn judge_flips(nodes: &[crate::node::NodeReport], truth_at: &TruthAt, accuracy: &mut Accuracy) {
+    let mut gave: IdMap<EntityId, Vec<&crate::pod::FlipRecord>> = IdMap::default();
+    for flip in nodes.iter().flat_map(|n| &n.flips).filter(|f| !f.took) {
+        gave.entry(flip.entity).or_default().push(flip);
+    }
+    let distance = |a: [f32; 3], b: [f32; 3]| {
+        (0..3)
+            .map(|k| f64::from(a[k] - b[k]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let (mut judged, mut untracked) = (0u64, 0u64);
+    for took in nodes.iter().flat_map(|n| &n.flips).filter(|f| f.took) {
+        let before = gave.get(&took.entity).and_then(|records| {
+            records
+                .iter()
+                .filter(|g| g.tick < took.tick)
+                .max_by_key(|g| g.tick)
+        });
+        // No earlier owner recorded giving it up: a body spawned here, or adopted from a pod
+        // that died (its record died with it) — not a hand-off.
+        let Some(before) = before else {
+            continue;
+        };
+        let Some(truth_after) = truth_at.get(&(took.entity, took.tick)) else {
+            untracked += 1;
+            continue;
+        };
+        let Some(truth_before) = truth_at.get(&(before.entity, before.tick)) else {
+            untracked += 1;
+            continue;
+        };
+        if distance(before.position, truth_before.0) > super::TRACKED_M {
+            untracked += 1;
+            continue;
+        }
+        judged += 1;
+        let moved = sub(took.position, before.position);
+        let moved_truth = sub(truth_after.0, truth_before.0);
+        let sped = sub(took.linvel, before.linvel);
+        let sped_truth = sub(truth_after.1, truth_before.1);
+        accuracy.handoff_jump_position_m = accuracy
+            .handoff_jump_position_m
+            .max(distance(moved, moved_truth));
+        accuracy.handoff_jump_velocity_mps = accuracy
+            .handoff_jump_velocity_mps
+            .max(distance(sped, sped_truth));
+    }
+    accuracy.handoffs = judged + untracked;
+    accuracy.handoffs_untracked = untracked;
 }

@@ -181,6 +181,7 @@ pub fn run(
         start_delay: Duration::from_millis(1500),
         in_phase: false,
         hosts: crate::run::HostsPlan::default(),
+        track_flips: false,
     };
     let panics = Arc::new(AtomicU64::new(0));
     let (lines, incoming) = mpsc::channel::<PodLine>();

@@ -243,6 +243,10 @@ pub struct NodeArgs {
     /// tick count rather than start at 0.
     #[arg(long)]
     pub rejoin: bool,
+    /// Record the first and last state of every body whose owner changes here (in the final
+    /// report), so a run can judge hand-off jumps against a single world afterwards.
+    #[arg(long)]
+    pub track_flips: bool,
     /// Also write the final report (JSON) to this file.
     #[arg(long)]
     pub metrics: Option<PathBuf>,
@@ -293,6 +297,7 @@ pub fn run_node(
         keyframe_ticks: args.model.keyframe_ticks,
         neighbour_timeout_ticks: args.neighbour_timeout_ticks,
         rejoin: args.rejoin,
+        track_flips: args.track_flips,
         ..PodSettings::new(&args.transport, &args.run_id)
     };
     let shown = seam_transport::redact_url(&args.transport);
@@ -403,6 +408,7 @@ pub fn run_node(
         owned: pod.owned(),
         proxied: pod.proxied(),
         projectiles_seen: pod.projectiles_seen(),
+        flips: pod.flips().to_vec(),
         rss_kib: rss_kib(),
     };
     tracing::info!(

@@ -166,6 +166,9 @@ pub struct NodeReport {
     /// Every projectile that was ever in this pod's world (owned or as a proxy), as seen every
     /// few ticks.
     pub projectiles_seen: Vec<EntityId>,
+    /// Authority flips of dynamic bodies this pod took part in (with `--track-flips`).
+    #[serde(default)]
+    pub flips: Vec<crate::pod::FlipRecord>,
     /// Resident memory at the end, KiB.
     pub rss_kib: u64,
 }

@@ -15,6 +15,7 @@
 //! Ids come from [`SceneIds`], so separately started pods agree on them.
 
 mod events;
+mod flips;
 mod ids;
 mod stages;
 
@@ -29,6 +30,7 @@ use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape, StateEnc
 
 use crate::scene::{self, Event, Scene, SceneShape};
 pub use events::{EventCounts, RoutedPush};
+pub use flips::FlipRecord;
 pub use ids::SceneIds;
 pub use stages::{OpStages, OpStagesSummary, TickDelaySummary};
 
@@ -66,6 +68,8 @@ pub struct PodSettings {
     /// Rejoin a running world after a restart: spawn nothing and fire no events (what this
     /// cluster owned was adopted by its neighbours; its projectiles' ids were used).
     pub rejoin: bool,
+    /// Record every authority flip's states (see [`FlipRecord`]), for free-running accuracy.
+    pub track_flips: bool,
 }
 
 impl PodSettings {
@@ -83,6 +87,7 @@ impl PodSettings {
             keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
             neighbour_timeout_ticks: 60,
             rejoin: false,
+            track_flips: false,
         }
     }
 }
@@ -126,6 +131,8 @@ pub struct Pod {
     stages: OpStages,
     /// The same, by the cluster whose frame brought each op.
     stages_by_sender: BTreeMap<ClusterId, OpStages>,
+    /// Authority flips seen, when asked for.
+    flips: Option<flips::FlipLog>,
     /// Scene name of every cluster, by id.
     cluster_names: HashMap<ClusterId, String>,
     owned_at_start: usize,
@@ -321,6 +328,7 @@ impl Pod {
             routed_pushes: Vec::new(),
             stages: OpStages::default(),
             stages_by_sender: BTreeMap::new(),
+            flips: settings.track_flips.then(flips::FlipLog::default),
             cluster_names,
             owned_at_start,
             fired: Vec::new(),
@@ -437,6 +445,11 @@ impl Pod {
     /// What the pod's events did so far.
     pub fn event_counts(&self) -> EventCounts {
         self.counts
+    }
+
+    /// The authority flips recorded so far (none unless `PodSettings::track_flips`).
+    pub fn flips(&self) -> &[FlipRecord] {
+        self.flips.as_ref().map_or(&[], |f| f.records.as_slice())
     }
 
     /// Stage times of the routed ops this pod applied so far.
@@ -626,6 +639,9 @@ impl Pod {
     }
 
     fn after_tick(&mut self) {
+        if let Some(flips) = &mut self.flips {
+            flips.observe(self.cluster.sim(), self.cluster.id());
+        }
         for timing in self.cluster.take_op_timings() {
             self.stages.record(&timing);
             self.stages_by_sender

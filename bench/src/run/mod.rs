@@ -66,6 +66,8 @@ pub struct RunPlan {
     pub in_phase: bool,
     /// Hosts the pods run on (one unless the scene or `--hosts` says more).
     pub hosts: HostsPlan,
+    /// Pods record every authority flip (`seam node --track-flips`).
+    pub track_flips: bool,
 }
 
 impl RunPlan {
@@ -148,6 +150,9 @@ pub fn spawn_pod(
     }
     if plan.quantize {
         command.arg("--quantize");
+    }
+    if plan.track_flips {
+        command.arg("--track-flips");
     }
     command.args(["--keyframe-ticks", &plan.keyframe_ticks.to_string()]);
     let mut child = command

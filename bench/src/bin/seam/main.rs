@@ -55,6 +55,7 @@ fn main() -> ExitCode {
                 delayed_host: hosts.delayed_host,
                 namespaces: !hosts.no_namespaces,
             },
+            track_flips: false,
         })
         .and_then(|report| {
             output.report(&report, run::table, run::markdown);
