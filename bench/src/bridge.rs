@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
-use seam_proxy::{Bridge, BridgeRoutes, DirectionStats, Region, world_map};
+use seam_proxy::{Bridge, BridgeRoutes, DirectionStats};
 use seam_sim::wire::ClusterId;
 
 use crate::pod::SceneIds;
@@ -105,23 +105,19 @@ pub fn routes(
         ));
     }
     let ids = SceneIds::new(run_id, &scene.name);
-    let clusters: Vec<(ClusterId, Region, f32)> = scene
+    let clusters: HashMap<String, ClusterId> = scene
         .clusters
         .iter()
-        .map(|c| {
-            let region = Region {
-                min: c.region.min,
-                max: c.region.max,
-            };
-            (ids.cluster(&c.name), region, c.spread)
-        })
+        .map(|c| (c.name.clone(), ids.cluster(&c.name)))
         .collect();
-    let host_of: HashMap<ClusterId, &str> = clusters
+    let host_of: HashMap<ClusterId, &str> = scene
+        .clusters
         .iter()
         .zip(&layout)
-        .map(|((id, ..), h)| (*id, h.as_str()))
+        .map(|(c, h)| (clusters[&c.name], h.as_str()))
         .collect();
-    Ok(BridgeRoutes::for_host(&world_map(&clusters), |id| {
+    let world = crate::pod::scene_world_map(scene, &clusters);
+    Ok(BridgeRoutes::for_host(&world, |id| {
         host_of.get(&id) == Some(&host)
     }))
 }

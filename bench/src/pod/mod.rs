@@ -152,7 +152,10 @@ pub struct Pod {
 const SEEN_EVERY: u64 = 10;
 
 /// Every cluster of `scene` with its region and neighbours (see `seam_proxy::world_map`).
-fn scene_world_map(scene: &Scene, ids: &HashMap<String, ClusterId>) -> Vec<WorldCluster> {
+pub(crate) fn scene_world_map(
+    scene: &Scene,
+    ids: &HashMap<String, ClusterId>,
+) -> Vec<WorldCluster> {
     let clusters: Vec<(ClusterId, Region, f32)> = scene
         .clusters
         .iter()

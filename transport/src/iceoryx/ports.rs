@@ -151,12 +151,17 @@ impl<S: Service> Outlet<S> {
         key: Option<&FrameKey>,
         payload: &[u8],
     ) -> Result<usize, PublishError> {
+        let sample = self.loan_copy(payload)?;
+        self.finish(publisher_id, key, payload.len(), sample)
+    }
+
+    /// A loaned sample holding a copy of `payload`.
+    fn loan_copy(&mut self, payload: &[u8]) -> Result<SampleMut<S, [u8], Envelope>, PublishError> {
         let sample = self
             .publisher
             .loan_slice_uninit(payload.len())
             .map_err(|e| self.unavailable(e.to_string()))?;
-        let sample = sample.write_from_slice(payload);
-        self.finish(publisher_id, key, payload.len(), sample)
+        Ok(sample.write_from_slice(payload))
     }
 
     fn finish(
@@ -184,11 +189,7 @@ impl<S: Service> Outlet<S> {
         origin: crate::Origin,
         payload: &[u8],
     ) -> Result<usize, PublishError> {
-        let sample = self
-            .publisher
-            .loan_slice_uninit(payload.len())
-            .map_err(|e| self.unavailable(e.to_string()))?;
-        let sample = sample.write_from_slice(payload);
+        let sample = self.loan_copy(payload)?;
         self.send(Envelope::forwarded(origin, payload.len()), sample)
     }
 

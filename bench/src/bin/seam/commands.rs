@@ -65,14 +65,7 @@ pub(crate) fn sweep(
     } else {
         scenes
     };
-    let scenes = paths
-        .iter()
-        .map(|p| {
-            seam_bench::scene::load(p)
-                .map_err(|e| format!("{e} (run from the repository root, or pass --scene FILE)"))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let scenes: Vec<_> = paths.into_iter().zip(scenes).collect();
+    let scenes = load_scenes(paths)?;
     let mut grid = if quick {
         seam_bench::sweep::SweepGrid::quick()
     } else {
@@ -214,14 +207,7 @@ pub(crate) fn network(
     } else {
         scenes
     };
-    let scenes = paths
-        .into_iter()
-        .map(|p| {
-            seam_bench::scene::load(&p)
-                .map(|scene| (p, scene))
-                .map_err(|e| format!("{e} (run from the repository root, or pass --scene FILE)"))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let scenes = load_scenes(paths)?;
     let plan = seam_bench::network::NetworkPlan {
         scenes,
         delays_ms,
@@ -243,4 +229,18 @@ pub(crate) fn network(
         println!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// Loads each scene file, kept with its path.
+fn load_scenes(
+    paths: Vec<std::path::PathBuf>,
+) -> Result<Vec<(std::path::PathBuf, seam_bench::scene::Scene)>, String> {
+    paths
+        .into_iter()
+        .map(|p| {
+            seam_bench::scene::load(&p)
+                .map(|scene| (p, scene))
+                .map_err(|e| format!("{e} (run from the repository root, or pass --scene FILE)"))
+        })
+        .collect()
 }
