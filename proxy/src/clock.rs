@@ -16,6 +16,8 @@ pub struct OpTiming {
     /// The cluster whose physics-events frame brought it (its issuer, or the former owner
     /// that forwarded it).
     pub from: seam_sim::wire::ClusterId,
+    /// The entity the op wrote to.
+    pub target: seam_sim::wire::EntityId,
     /// User code made the write (issuing cluster).
     pub issued_ns: u64,
     /// The frame carrying it was handed to the transport (issuing cluster).

@@ -256,7 +256,7 @@ pub use authority::{
 pub use bridge::{Bridge, BridgeRoutes, DirectionCounters, DirectionStats};
 pub use channels::{physics_events, replication};
 pub use clock::{OpTiming, monotonic_ns};
-pub use cluster::{Cluster, DRAIN_S, MAX_OP_TIMINGS, NeighbourStatus};
+pub use cluster::{Cluster, DRAIN_S, HandoffEvent, MAX_OP_TIMINGS, NeighbourStatus};
 pub use config::{
     ClusterConfig, CustomProxy, DEFAULT_KEYFRAME_TICKS, ProxyMode, Region, WorldCluster, world_map,
 };

@@ -119,6 +119,20 @@ impl ClusterSim {
         self.entities.iter().map(|(id, e)| (*id, &e.info))
     }
 
+    /// Every entity with its info, position and orientation `[x, y, z, w]`, in one pass (what
+    /// a recording of the world needs each tick, without building whole states).
+    pub fn poses(&self) -> impl Iterator<Item = (EntityId, &EntityInfo, [f32; 3], [f32; 4])> {
+        self.entities.iter().filter_map(|(id, e)| {
+            let body = self.world.bodies.get(e.body)?;
+            Some((
+                *id,
+                &e.info,
+                body.translation().to_array(),
+                body.rotation().to_array(),
+            ))
+        })
+    }
+
     /// Number of entities in the world.
     pub fn len(&self) -> usize {
         self.entities.len()

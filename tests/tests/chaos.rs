@@ -6,9 +6,18 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use seam_bench::chaos::{self, ChaosPlan, ChaosReport};
+use seam_bench::record::{Chunk, PartsDir, Recording};
 use seam_tests::{private_redis, scene_path};
 
 fn chaos_run(redis: bool, key: Option<&str>) -> ChaosReport {
+    chaos_run_recorded(redis, key, None)
+}
+
+fn chaos_run_recorded(
+    redis: bool,
+    key: Option<&str>,
+    record_dir: Option<std::path::PathBuf>,
+) -> ChaosReport {
     let plan = ChaosPlan {
         scene: scene_path("crossfire.toml"),
         redis,
@@ -19,6 +28,7 @@ fn chaos_run(redis: bool, key: Option<&str>) -> ChaosReport {
         seed: 7,
         node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
         key: key.map(str::to_owned),
+        record_dir,
     };
     chaos::run(&plan, &AtomicBool::new(false), |_| {}).expect("seam chaos runs")
 }
@@ -37,7 +47,39 @@ fn assert_held(report: &ChaosReport) {
 
 #[test]
 fn chaos_on_shared_memory_loses_nothing() {
-    assert_held(&chaos_run(false, None));
+    // Recorded: every incarnation of every pod writes its own part, and the faults go in too.
+    let out = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("chaos-shm.rec");
+    let parts = PartsDir::beside(Some(&out)).expect("parts folder");
+    let report = chaos_run_recorded(false, None, Some(parts.dir.clone()));
+    assert_held(&report);
+    let summary = parts
+        .merge_into(&out, &report.fault_log, "seam chaos")
+        .expect("the parts merge");
+    // Two pods, and a part for each restart of a killed one.
+    assert_eq!(summary.parts as u64, 2 + report.faults.kill, "{summary:?}");
+    let recording = Recording::read(&out).expect("the recording reads back");
+    let faults: Vec<&str> = recording
+        .chunks
+        .iter()
+        .filter_map(|c| match c {
+            Chunk::Fault(f) => Some(f.what.as_str()),
+            Chunk::Tick(_) => None,
+        })
+        .collect();
+    let kills = faults.iter().filter(|f| f.ends_with("killed")).count() as u64;
+    let stops = faults.iter().filter(|f| f.ends_with("stopped")).count() as u64;
+    assert_eq!(
+        (kills, stops),
+        (report.faults.kill, report.faults.stop),
+        "{faults:?}"
+    );
+    // Both pods' streams run to the end of the run.
+    for stream in 0..2u16 {
+        assert!(
+            recording.stream_ticks(stream).count() > 600,
+            "stream {stream}"
+        );
+    }
 }
 
 #[test]

@@ -4,7 +4,6 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
-use seam_bench::node::{AuthorityArgs, ProxyModeArg};
 use seam_bench::run::{self, RunPlan};
 use seam_tests::{PATIENCE, TestContext, receive, redis_url, scene_path};
 use seam_transport::{Backend, OpenError, SubscribeError, Transport};
@@ -264,23 +263,11 @@ fn redis_user_and_password_in_the_url_work() {
         // Pods started with the URL log in too, and neither the report nor its table names
         // the password.
         let plan = RunPlan {
-            scene: scene_path("crossfire.toml"),
-            transport: url.clone(),
             rate: 300.0,
             ticks: Some(600),
-            proxy_mode: ProxyModeArg::Fixed,
-            authority: AuthorityArgs::default(),
-            replication_interval: 1,
-            coupling: true,
-            quantize: false,
-            keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
-            layers: 1,
-            run_id: run::fresh_run_id(),
             node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
             start_delay: Duration::from_millis(300),
-            in_phase: false,
-            hosts: seam_bench::run::HostsPlan::default(),
-            track_flips: false,
+            ..RunPlan::new(scene_path("crossfire.toml"), url.clone())
         };
         // While they run, the process list shows each pod's command line: no password there.
         let mut pods_seen = 0;

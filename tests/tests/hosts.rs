@@ -8,7 +8,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use seam_bench::bridge::{BridgeLine, host_url};
-use seam_bench::node::{AuthorityArgs, NodeReport, ProxyModeArg};
+use seam_bench::node::NodeReport;
 use seam_bench::pod::SceneIds;
 use seam_bench::relay::Delay;
 use seam_bench::run::{self, HostsPlan, PodSummary, RunPlan, RunReport};
@@ -25,27 +25,16 @@ fn plan(scene: &str, hosts: u32, rate: f64, ticks: u64) -> Option<RunPlan> {
     let shm = TestContext::new(Backend::Shm)?;
     drop(ctx);
     Some(RunPlan {
-        scene: scene_path(scene),
-        transport: shm.url(),
         rate,
         ticks: Some(ticks),
-        proxy_mode: ProxyModeArg::Fixed,
-        authority: AuthorityArgs::default(),
-        replication_interval: 1,
-        coupling: true,
-        quantize: false,
-        keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
-        layers: 1,
-        run_id: run::fresh_run_id(),
         node_command: vec![NODE.into()],
         start_delay: Duration::from_millis(500),
-        in_phase: false,
         hosts: HostsPlan {
             count: Some(hosts),
             redis: redis_url(),
             ..HostsPlan::default()
         },
-        track_flips: false,
+        ..RunPlan::new(scene_path(scene), shm.url())
     })
 }
 

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use seam_bench::node::{AuthorityArgs, ProxyModeArg};
+use seam_bench::node::AuthorityArgs;
 use seam_bench::run::{self, PodSummary, RunPlan, RunReport};
 use seam_tests::TestContext;
 
@@ -23,23 +23,11 @@ fn scene(name: &str) -> PathBuf {
 
 fn plan(scene_name: &str, transport: String, rate: f64, ticks: u64) -> RunPlan {
     RunPlan {
-        scene: scene(scene_name),
-        transport,
         rate,
         ticks: Some(ticks),
-        proxy_mode: ProxyModeArg::Fixed,
-        authority: AuthorityArgs::default(),
-        replication_interval: 1,
-        coupling: true,
-        quantize: false,
-        keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
-        layers: 1,
-        run_id: run::fresh_run_id(),
         node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
         start_delay: Duration::from_millis(500),
-        in_phase: false,
-        hosts: seam_bench::run::HostsPlan::default(),
-        track_flips: false,
+        ..RunPlan::new(scene(scene_name), transport)
     }
 }
 

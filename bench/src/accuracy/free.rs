@@ -63,8 +63,6 @@ pub fn run_free_trial_on_hosts(
     };
     let ticks = settings.ticks.unwrap_or(scene.ticks);
     let plan = RunPlan {
-        scene: scene_path.to_owned(),
-        transport: transport.to_owned(),
         rate: free.rate,
         ticks: Some(ticks),
         proxy_mode,
@@ -73,13 +71,13 @@ pub fn run_free_trial_on_hosts(
         coupling: settings.coupling,
         quantize: settings.quantize,
         keyframe_ticks: settings.keyframe_ticks,
-        layers: 1,
         run_id: run_id.to_owned(),
         node_command: free.node_command.clone(),
         start_delay: Duration::from_millis(500),
         in_phase: free.in_phase,
         hosts: free.hosts.clone(),
         track_flips: true,
+        ..RunPlan::new(scene_path, transport)
     };
     let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})?;
 

@@ -13,6 +13,7 @@
 mod compare;
 mod free;
 
+use crate::record::{EntityTable, PodRecorder};
 use std::time::{Duration, Instant};
 
 use seam_proxy::ProxyMode;
@@ -188,6 +189,18 @@ pub fn run_trial(
     run_id: &str,
     trace: Option<&str>,
 ) -> Result<TrialResult, String> {
+    run_recorded_trial(scene, settings, run_id, trace, None)
+}
+
+/// As [`run_trial`], also recording every cluster's ticks and the single world's into
+/// `record` (see [`crate::record`]).
+pub fn run_recorded_trial(
+    scene: &Scene,
+    settings: &TrialSettings,
+    run_id: &str,
+    trace: Option<&str>,
+    record: Option<&std::path::Path>,
+) -> Result<TrialResult, String> {
     let scene = settings.apply(scene.clone());
     let pod_settings = |transport: String| PodSettings {
         proxy_mode: settings.proxy_mode,
@@ -230,18 +243,37 @@ pub fn run_trial(
     let mut tick_times: Vec<LatencyRecorder> = pods.iter().map(|_| Default::default()).collect();
     let mut reference_time = LatencyRecorder::default();
     let mut proxies_sum = 0u64;
+    let mut recorder = match record {
+        Some(path) => {
+            let table = EntityTable::new(&scene, run_id, scene.ticks, 0.0, "seam compare", true);
+            Some(PodRecorder::create(path, table).map_err(|e| e.to_string())?)
+        }
+        None => None,
+    };
+    let recording = |e: crate::record::RecordError| format!("recording: {e}");
     for _ in 0..scene.ticks {
         let begun = Instant::now();
         reference.tick().map_err(|e| format!("reference: {e}"))?;
-        reference_time.record(begun.elapsed().as_nanos() as u64);
+        let took = begun.elapsed().as_nanos() as u64;
+        reference_time.record(took);
+        if let Some(recorder) = &mut recorder {
+            recorder.observe(&reference, took).map_err(recording)?;
+        }
         for (pod, time) in pods.iter_mut().zip(&mut tick_times) {
             let begun = Instant::now();
             pod.tick_lockstep(LOCKSTEP_TIMEOUT)
                 .map_err(|e| format!("{}: {e}", pod.name()))?;
-            time.record(begun.elapsed().as_nanos() as u64);
+            let took = begun.elapsed().as_nanos() as u64;
+            time.record(took);
             proxies_sum += pod.population().1 as u64;
+            if let Some(recorder) = &mut recorder {
+                recorder.observe(pod, took).map_err(recording)?;
+            }
         }
         comparison.observe(&reference, &pods);
+    }
+    if let Some(recorder) = recorder {
+        recorder.finish().map_err(recording)?;
     }
 
     let ticks = scene.ticks.max(1);

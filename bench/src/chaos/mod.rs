@@ -43,7 +43,7 @@ use std::time::{Duration, Instant};
 use rustix::process::{Pid, Signal, kill_process};
 use seam_proxy::monotonic_ns;
 
-use crate::node::{AuthorityArgs, NodeLine, NodeProgress, NodeReport, ProxyModeArg};
+use crate::node::{NodeLine, NodeProgress, NodeReport};
 use crate::pod::SceneIds;
 use crate::redis_server::RedisServer;
 use crate::run::{PodLaunch, PodLine, RunPlan, fresh_run_id, spawn_pod};
@@ -73,6 +73,8 @@ pub struct ChaosPlan {
     /// A frame key for the pods (`key=` in their URL); the injector has none, so everything
     /// it sends must be refused as untagged.
     pub key: Option<String>,
+    /// Pods record their streams into part files here (see [`crate::record`]).
+    pub record_dir: Option<PathBuf>,
 }
 
 /// A fault, and what it waits for.
@@ -165,23 +167,14 @@ pub fn run(
         None => transport.clone(),
     };
     let run_plan = RunPlan {
-        scene: plan.scene.clone(),
-        transport: pod_transport,
         rate: plan.rate,
         ticks: Some(ticks),
-        proxy_mode: ProxyModeArg::Fixed,
-        authority: AuthorityArgs::default(),
-        replication_interval: 1,
-        coupling: true,
-        quantize: false,
-        keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
         layers: plan.layers,
         run_id: run_id.clone(),
         node_command: plan.node_command.clone(),
         start_delay: Duration::from_millis(1500),
-        in_phase: false,
-        hosts: crate::run::HostsPlan::default(),
-        track_flips: false,
+        record_dir: plan.record_dir.clone(),
+        ..RunPlan::new(plan.scene.clone(), pod_transport)
     };
     let panics = Arc::new(AtomicU64::new(0));
     let (lines, incoming) = mpsc::channel::<PodLine>();
@@ -257,6 +250,15 @@ pub fn run(
     let deadline = launched + run_plan.start_delay + plan.duration + DEADLINE_SLACK;
     let mut phase = Phase::Calm(first_fault);
     let mut faults = FaultCounts::default();
+    let mut fault_log: Vec<crate::record::Fault> = Vec::new();
+    let mut log_fault = |stream: Option<usize>, what: String| {
+        let since = monotonic_ns().saturating_sub(start_at) as f64;
+        fault_log.push(crate::record::Fault {
+            tick: (since * plan.rate / 1e9) as u64,
+            stream: stream.map(|s| s as u16),
+            what,
+        });
+    };
     let mut pending_survival: Option<(Fault, Instant)> = None;
     let mut dead_incarnations: Vec<NodeProgress> = Vec::new();
     let mut failed_faults: Vec<String> = Vec::new();
@@ -392,6 +394,7 @@ pub fn run(
                                 dead_incarnations.push(last);
                             }
                             faults.kill += 1;
+                            log_fault(Some(index), format!("pod {} killed", pods[index].name));
                             Phase::Killed(index, now + KILLED_FOR)
                         }
                         Fault::Stop => {
@@ -399,6 +402,7 @@ pub fn run(
                                 signal(child, Signal::STOP);
                             }
                             faults.stop += 1;
+                            log_fault(Some(index), format!("pod {} stopped", pods[index].name));
                             Phase::Stopped(index, now + STOPPED_FOR)
                         }
                         Fault::RestartRedis => {
@@ -406,6 +410,7 @@ pub fn run(
                                 server.kill();
                             }
                             faults.redis_restart += 1;
+                            log_fault(None, "Redis server killed".into());
                             Phase::RedisDown(now + REDIS_DOWN_FOR)
                         }
                     }
@@ -415,6 +420,7 @@ pub fn run(
             }
             Phase::Killed(index, until) if now >= until => {
                 launch(&mut pods, &mut readers, index, true)?;
+                log_fault(Some(index), format!("pod {} restarted", pods[index].name));
                 pending_survival = Some((Fault::Kill, now));
                 Phase::Calm(now + plan.fault_every)
             }
@@ -422,6 +428,7 @@ pub fn run(
                 if let Some(child) = &pods[index].child {
                     signal(child, Signal::CONT);
                 }
+                log_fault(Some(index), format!("pod {} continued", pods[index].name));
                 pending_survival = Some((Fault::Stop, now));
                 Phase::Calm(now + plan.fault_every)
             }
@@ -429,6 +436,7 @@ pub fn run(
                 if let Some(server) = &mut redis {
                     server.restart()?;
                 }
+                log_fault(None, "Redis server restarted".into());
                 pending_survival = Some((Fault::RestartRedis, now));
                 Phase::Calm(now + plan.fault_every)
             }
@@ -502,6 +510,7 @@ pub fn run(
             exited_badly,
             problems,
             memory,
+            fault_log,
         },
     ))
 }

@@ -299,6 +299,8 @@ pub struct ChaosReport {
     pub problems: Vec<String>,
     /// Memory of each pod after warm-up.
     pub memory: Vec<MemoryRow>,
+    /// Every fault with the tick it came at (what `--record` writes into the recording).
+    pub fault_log: Vec<crate::record::Fault>,
 }
 
 /// What [`ChaosReport::new`] is made from.
@@ -320,6 +322,7 @@ pub(super) struct Inputs<'a> {
     pub exited_badly: u64,
     pub problems: Vec<String>,
     pub memory: Vec<MemoryRow>,
+    pub fault_log: Vec<crate::record::Fault>,
 }
 
 impl ChaosReport {
@@ -389,6 +392,7 @@ impl ChaosReport {
             exited_badly: inputs.exited_badly,
             problems: inputs.problems,
             memory: inputs.memory,
+            fault_log: inputs.fault_log,
         }
     }
 

@@ -28,6 +28,7 @@ use seam_sim::wire::StateEncoding;
 
 use crate::latency::LatencyRecorder;
 use crate::pod::{Part, Pod, PodSettings};
+use crate::record::{EntityTable, PodRecorder};
 pub use report::{NodeLine, NodeProgress, NodeReport, TransportCounts};
 
 /// How neighbour entities are modelled, as a command-line value.
@@ -247,6 +248,11 @@ pub struct NodeArgs {
     /// report), so a run can judge hand-off jumps against a single world afterwards.
     #[arg(long)]
     pub track_flips: bool,
+    /// Record this pod's tick by tick (what it owned and where, its proxies, the routed ops it
+    /// applied, the contacts reported to it, its tick time) into FILE, a recording of one
+    /// stream (see `seam inspect`; `seam run --record` merges its pods').
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
     /// Also write the final report (JSON) to this file.
     #[arg(long)]
     pub metrics: Option<PathBuf>,
@@ -329,8 +335,20 @@ pub fn run_node(
         first_tick,
         "pod started"
     );
+    let mut recorder = match &args.record {
+        Some(path) => {
+            let table =
+                EntityTable::new(&scene, &args.run_id, ticks, args.rate, "seam node", false);
+            Some(
+                PodRecorder::create(path, table)
+                    .map_err(|e| format!("{}: {e}", pod_name(&part)))?,
+            )
+        }
+        None => None,
+    };
     let started = Instant::now();
     let mut tick_time = LatencyRecorder::default();
+    let mut record_time = LatencyRecorder::default();
     let (mut overruns, mut max_lag_ns, mut proxies_peak) = (0u64, 0u64, 0usize);
     let mut last_progress = Instant::now();
     // The schedule stops the policy's hand-offs in the last ticks, so that those under way
@@ -342,6 +360,14 @@ pub fn run_node(
         max_lag_ns = max_lag_ns.max(due.lag_ns);
         let begun = Instant::now();
         pod.tick().map_err(fail)?;
+        if let Some(recorder) = &mut recorder {
+            // The tick's own time goes in the recording; the recorder's counts in the pod's.
+            let stepped = begun.elapsed().as_nanos() as u64;
+            recorder
+                .observe(&pod, stepped)
+                .map_err(|e| format!("{}: recording: {e}", pod.name()))?;
+            record_time.record(begun.elapsed().as_nanos() as u64 - stepped);
+        }
         let took = begun.elapsed().as_nanos() as u64;
         tick_time.record(took);
         if schedule.period_ns().is_some_and(|p| took > p) {
@@ -373,6 +399,23 @@ pub fn run_node(
     // Stopping on purpose: a neighbour still ticking (behind the schedule, or running
     // longer) must not take this pod for dead and adopt what it ends the run owning.
     pod.cluster_mut().leave().map_err(fail)?;
+    let (recorded_bytes, recorded_entity_ticks) = match recorder {
+        Some(recorder) => {
+            let counts = (recorder.bytes, recorder.entity_ticks);
+            if recorder.unknown > 0 {
+                tracing::warn!(
+                    target: "seam::pod",
+                    unknown = recorder.unknown,
+                    "entities the recording's table does not know were left out"
+                );
+            }
+            recorder
+                .finish()
+                .map_err(|e| format!("{}: recording: {e}", pod.name()))?;
+            counts
+        }
+        None => (0, 0),
+    };
     let done = schedule.next_tick();
     let (entities_owned, proxies) = pod.population();
     let transport = pod.cluster().transport_stats();
@@ -409,6 +452,9 @@ pub fn run_node(
         proxied: pod.proxied(),
         projectiles_seen: pod.projectiles_seen(),
         flips: pod.flips().to_vec(),
+        recorded_bytes,
+        recorded_entity_ticks,
+        record_time: args.record.is_some().then_some(record_time),
         rss_kib: rss_kib(),
     };
     tracing::info!(

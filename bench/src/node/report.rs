@@ -169,6 +169,15 @@ pub struct NodeReport {
     /// Authority flips of dynamic bodies this pod took part in (with `--track-flips`).
     #[serde(default)]
     pub flips: Vec<crate::pod::FlipRecord>,
+    /// Bytes of recording written (with `--record`).
+    #[serde(default)]
+    pub recorded_bytes: u64,
+    /// Owned entity-ticks recorded (with `--record`).
+    #[serde(default)]
+    pub recorded_entity_ticks: u64,
+    /// Time the recorder took each tick, ns (with `--record`; included in `tick_time`).
+    #[serde(default)]
+    pub record_time: Option<LatencyRecorder>,
     /// Resident memory at the end, KiB.
     pub rss_kib: u64,
 }

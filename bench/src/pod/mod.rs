@@ -133,6 +133,10 @@ pub struct Pod {
     stages_by_sender: BTreeMap<ClusterId, OpStages>,
     /// Authority flips seen, when asked for.
     flips: Option<flips::FlipLog>,
+    /// The routed ops applied in the last tick.
+    last_ops: Vec<seam_proxy::OpTiming>,
+    /// The hand-offs taken and given in the last tick.
+    last_handoffs: Vec<seam_proxy::HandoffEvent>,
     /// Scene name of every cluster, by id.
     cluster_names: HashMap<ClusterId, String>,
     owned_at_start: usize,
@@ -147,6 +151,10 @@ pub struct Pod {
     /// Projectiles that were in this world at one of the looks every [`SEEN_EVERY`] ticks.
     projectiles_seen: HashSet<EntityId>,
 }
+
+/// The scene-cluster name a reference pod's cluster id is derived from (no scene cluster can
+/// have it).
+pub(crate) const REFERENCE_CLUSTER: &str = "\u{0}reference";
 
 /// How often a pod looks for projectiles in its world, ticks.
 const SEEN_EVERY: u64 = 10;
@@ -211,7 +219,7 @@ impl Pod {
             Part::Reference => (
                 "reference".to_owned(),
                 scene.clusters.iter().map(|c| c.name.clone()).collect(),
-                ids.cluster("\u{0}reference"),
+                ids.cluster(REFERENCE_CLUSTER),
                 Vec::new(),
                 Region::EVERYWHERE,
                 0.0,
@@ -332,6 +340,8 @@ impl Pod {
             stages: OpStages::default(),
             stages_by_sender: BTreeMap::new(),
             flips: settings.track_flips.then(flips::FlipLog::default),
+            last_ops: Vec::new(),
+            last_handoffs: Vec::new(),
             cluster_names,
             owned_at_start,
             fired: Vec::new(),
@@ -453,6 +463,17 @@ impl Pod {
     /// The authority flips recorded so far (none unless `PodSettings::track_flips`).
     pub fn flips(&self) -> &[FlipRecord] {
         self.flips.as_ref().map_or(&[], |f| f.records.as_slice())
+    }
+
+    /// The routed ops this pod applied in its last tick.
+    pub fn last_ops(&self) -> &[seam_proxy::OpTiming] {
+        &self.last_ops
+    }
+
+    /// The hand-offs this pod took and gave in its last tick (one taken and given back within
+    /// the tick included).
+    pub fn last_handoffs(&self) -> &[seam_proxy::HandoffEvent] {
+        &self.last_handoffs
     }
 
     /// Stage times of the routed ops this pod applied so far.
@@ -645,12 +666,14 @@ impl Pod {
         if let Some(flips) = &mut self.flips {
             flips.observe(self.cluster.sim(), self.cluster.id());
         }
-        for timing in self.cluster.take_op_timings() {
-            self.stages.record(&timing);
+        self.last_ops = self.cluster.take_op_timings();
+        self.last_handoffs = self.cluster.take_handoffs();
+        for timing in &self.last_ops {
+            self.stages.record(timing);
             self.stages_by_sender
                 .entry(timing.from)
                 .or_default()
-                .record(&timing);
+                .record(timing);
         }
         if self.all_projectiles.is_empty() {
             return;

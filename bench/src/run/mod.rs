@@ -68,9 +68,39 @@ pub struct RunPlan {
     pub hosts: HostsPlan,
     /// Pods record every authority flip (`seam node --track-flips`).
     pub track_flips: bool,
+    /// Each pod records its stream into a part file in this folder (`seam node --record`);
+    /// see [`crate::record`].
+    pub record_dir: Option<PathBuf>,
 }
 
 impl RunPlan {
+    /// A plan to run `scene` on `transport` with the defaults `seam run` has: 60 Hz, the
+    /// scene's ticks, Fixed proxies, the spatial policy, a frame every tick, coupling, exact
+    /// states, one layer, one host, pods staggered and started by this executable's `node`
+    /// command, a fresh run id.
+    pub fn new(scene: impl Into<PathBuf>, transport: impl Into<String>) -> Self {
+        Self {
+            scene: scene.into(),
+            transport: transport.into(),
+            rate: 60.0,
+            ticks: None,
+            proxy_mode: ProxyModeArg::Fixed,
+            authority: AuthorityArgs::default(),
+            replication_interval: 1,
+            coupling: true,
+            quantize: false,
+            keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
+            layers: 1,
+            run_id: fresh_run_id(),
+            node_command: Vec::new(),
+            start_delay: Duration::from_millis(750),
+            in_phase: false,
+            hosts: HostsPlan::default(),
+            track_flips: false,
+            record_dir: None,
+        }
+    }
+
     /// How much later than pod 0 pod `index` of `pods` ticks, ns (see the module docs).
     pub fn pod_offset_ns(&self, index: usize, pods: u64) -> u64 {
         if self.in_phase || self.rate <= 0.0 {
@@ -100,6 +130,9 @@ pub struct PodLaunch<'a> {
     /// The network namespace it runs in (a pod on a simulated host), if any.
     pub namespace: Option<&'a str>,
 }
+
+/// Numbers pods' part files apart (see [`RunPlan::record_dir`]).
+static PART_FILES: AtomicU64 = AtomicU64::new(0);
 
 /// A line a pod wrote, tagged with its index, or why it could not be read.
 pub type PodLine = (usize, Result<NodeLine, String>);
@@ -155,6 +188,13 @@ pub fn spawn_pod(
         command.arg("--track-flips");
     }
     command.args(["--keyframe-ticks", &plan.keyframe_ticks.to_string()]);
+    if let Some(dir) = &plan.record_dir {
+        // One part file per incarnation of a pod (a restarted pod writes a new one).
+        let n = PART_FILES.fetch_add(1, Ordering::Relaxed);
+        command
+            .arg("--record")
+            .arg(dir.join(format!("{}-{n}.part", launch.cluster)));
+    }
     let mut child = command
         .spawn()
         .map_err(|e| format!("cannot start the pod of {:?}: {e}", launch.cluster))?;

@@ -5,7 +5,7 @@ use serde::Serialize;
 
 use super::RunPlan;
 use super::ownership::Ownership;
-use crate::latency::{LatencySummary, micros};
+use crate::latency::{LatencyRecorder, LatencySummary, micros};
 use crate::node::{NodeReport, ProxyModeArg, TransportCounts};
 use crate::pod::{EventCounts, OpStages, OpStagesSummary};
 
@@ -40,6 +40,10 @@ pub struct PodSummary {
     pub events: EventCounts,
     /// Routed ops this pod applied.
     pub ops: OpStagesSummary,
+    /// Time its recorder took each tick, ns (with `--record`; part of `tick_time`).
+    pub record_time: Option<LatencySummary>,
+    /// Bytes it recorded.
+    pub recorded_bytes: u64,
 }
 
 /// Sums over all pods.
@@ -134,6 +138,8 @@ impl RunReport {
                 transport_stats: r.transport_stats,
                 events: r.events,
                 ops: r.ops.summary(),
+                record_time: r.record_time.as_ref().map(LatencyRecorder::summary),
+                recorded_bytes: r.recorded_bytes,
             });
         }
         Self {
@@ -228,7 +234,9 @@ pub fn table(report: &RunReport) -> String {
     out += "tick times in ms; over = ticks longer than the tick period; ops> routed out, ops< \
             applied here, drop = dropped here; cont> contacts with proxies sent to their owner, \
             cont< received; ho> hand-offs out, ho< in; ovfl = messages lost to a full buffer, \
-            bad = frames refused (undecodable, other version, wrong sender, replayed, implausible tick)\n\n";
+            bad = frames refused (undecodable, other version, wrong sender, replayed, implausible tick)\n";
+    out += &recording_line(report);
+    out += "\n";
 
     let o = &report.ops;
     out += &format!("routed ops applied: {}\n", o.ops);
@@ -329,6 +337,32 @@ fn millis(nanos: u64) -> String {
     format!("{:.2}", nanos as f64 / 1e6)
 }
 
+/// What recording cost each pod a tick, if the pods recorded (empty otherwise).
+fn recording_line(report: &RunReport) -> String {
+    let costs: Vec<String> = report
+        .pods
+        .iter()
+        .filter_map(|p| {
+            let r = p.record_time.as_ref()?;
+            let share = r.p50_ns as f64 / p.tick_time.p50_ns.max(1) as f64 * 100.0;
+            Some(format!(
+                "{} {:.3} ms ({share:.1} %)",
+                p.cluster,
+                r.p50_ns as f64 / 1e6
+            ))
+        })
+        .collect();
+    if costs.is_empty() {
+        return String::new();
+    }
+    let bytes: u64 = report.pods.iter().map(|p| p.recorded_bytes).sum();
+    format!(
+        "\nrecording, per pod p50 a tick (share of its tick p50): {}; {:.1} MB written\n",
+        costs.join(", "),
+        bytes as f64 / 1e6
+    )
+}
+
 /// The report as Markdown tables (`seam run --markdown`), as BENCHMARKS.md quotes them: one row
 /// per pod, then the routed-op stages of all pods merged.
 pub fn markdown(report: &RunReport) -> String {
@@ -362,6 +396,7 @@ pub fn markdown(report: &RunReport) -> String {
         ]);
     }
     let mut out = pods.render();
+    out += &recording_line(report);
     let o = &report.ops;
     if o.ops > 0 {
         let period_ns = (report.rate_hz > 0.0).then(|| 1e9 / report.rate_hz);

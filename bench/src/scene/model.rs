@@ -1,6 +1,6 @@
 //! The scene file's types and the checks a run relies on.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// x, y, z.
 pub type Vec3 = [f32; 3];
@@ -78,7 +78,7 @@ pub struct Region {
 }
 
 /// A collision shape.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 #[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
 pub enum SceneShape {
     /// A sphere.
@@ -129,7 +129,7 @@ impl SceneShape {
 }
 
 /// How the owner simulates an entity.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Role {
     /// Simulated.

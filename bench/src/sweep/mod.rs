@@ -10,7 +10,7 @@
 //! at the shortest and longest interval ([`run_free_trial`]). Results go to `sweep.csv`, one
 //! row per trial with every metric, and to charts (`charts`).
 
-mod charts;
+pub(crate) mod charts;
 mod csv;
 
 use std::path::{Path, PathBuf};

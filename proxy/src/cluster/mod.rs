@@ -51,6 +51,15 @@ const EVENTS_ROOM: usize = 4096;
 /// Op timings kept between two [`Cluster::take_op_timings`] calls.
 pub const MAX_OP_TIMINGS: usize = 1 << 20;
 
+/// A hand-off as one cluster saw it (see [`Cluster::take_handoffs`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HandoffEvent {
+    /// The entity.
+    pub entity: EntityId,
+    /// Taken by this cluster (else given away).
+    pub taken: bool,
+}
+
 /// One simulation cluster: its world, its transport, and the three cross-cluster layers.
 pub struct Cluster {
     config: ClusterConfig,
@@ -61,6 +70,8 @@ pub struct Cluster {
     outgoing_ops: IdMap<ClusterId, Vec<RoutedOp>>,
     /// Stage times of the routed ops applied here, until the caller takes them.
     op_timings: Vec<OpTiming>,
+    /// Hand-offs taken and given here, until the caller takes them.
+    handoff_log: Vec<HandoffEvent>,
     /// Contacts with proxies, by the proxy's owner, for this tick's publish.
     outgoing_contacts: IdMap<ClusterId, Vec<ContactReport>>,
     /// Entities to hand over at the next replication frame, and to whom.
@@ -173,6 +184,7 @@ impl Cluster {
             inbox: Inbox::default(),
             outgoing_ops: IdMap::default(),
             op_timings: Vec::new(),
+            handoff_log: Vec::new(),
             outgoing_contacts: IdMap::default(),
             transfers: IdMap::default(),
             handed: IdMap::default(),
@@ -228,6 +240,23 @@ impl Cluster {
     /// [`ClusterStats::op_timings_dropped`]).
     pub fn take_op_timings(&mut self) -> Vec<OpTiming> {
         std::mem::take(&mut self.op_timings)
+    }
+
+    /// The hand-offs this cluster took and gave since the last call, in order (at most
+    /// [`MAX_OP_TIMINGS`] kept between calls; more are counted in
+    /// [`ClusterStats::handoff_log_dropped`]). A hand-off taken and given back within one
+    /// tick shows here though the entity's owner after the tick is unchanged.
+    pub fn take_handoffs(&mut self) -> Vec<HandoffEvent> {
+        std::mem::take(&mut self.handoff_log)
+    }
+
+    /// Notes a hand-off for [`Cluster::take_handoffs`].
+    fn log_handoff(&mut self, entity: EntityId, taken: bool) {
+        if self.handoff_log.len() < MAX_OP_TIMINGS {
+            self.handoff_log.push(HandoffEvent { entity, taken });
+        } else {
+            self.stats.handoff_log_dropped += 1;
+        }
     }
 
     /// Carries on the world's tick count from `tick`: a pod restarted into a running world

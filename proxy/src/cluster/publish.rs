@@ -184,6 +184,7 @@ impl Cluster {
                 self.handed.insert(entity, handed);
                 self.released.insert(entity, (handed.epoch, tick));
                 self.stats.handoffs_out += 1;
+                self.log_handoff(entity, false);
             }
             self.released
                 .retain(|_, &mut (_, at)| tick.saturating_sub(at) <= RELEASED_FOR);

@@ -156,6 +156,7 @@ impl Cluster {
                 .map_err(|_| ())?;
             self.sim.apply_state(state).map_err(|_| ())?;
             self.stats.handoffs_in += 1;
+            self.log_handoff(state.id, true);
             return Ok(());
         }
         if state.cluster_id != from {
@@ -176,6 +177,7 @@ impl Cluster {
     pub(super) fn take_over_unseen(&mut self, state: &EntityState) -> Result<(), ()> {
         self.sim.spawn(state, owner_role(state)).map_err(|_| ())?;
         self.stats.handoffs_in += 1;
+        self.log_handoff(state.id, true);
         Ok(())
     }
 

@@ -73,6 +73,7 @@ impl Cluster {
                                 self.stats.ops_applied += 1;
                                 let timing = OpTiming {
                                     from: frame.from,
+                                    target: routed.op.target(),
                                     issued_ns: routed.issued_ns,
                                     published_ns: frame.published_ns,
                                     received_ns: *received_ns,

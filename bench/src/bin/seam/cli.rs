@@ -55,6 +55,8 @@ pub(crate) enum Command {
         #[arg(long)]
         in_phase: bool,
         #[command(flatten)]
+        record: RecordArgs,
+        #[command(flatten)]
         output: Output,
     },
     /// Compare one setting against the single-world reference: accuracy and cost.
@@ -77,6 +79,11 @@ pub(crate) enum Command {
         /// world, which cluster simulates it, and how far apart the two are.
         #[arg(long, value_name = "NAME")]
         trace: Option<String>,
+        /// Record the split run and the single world, tick by tick, into FILE (one scene
+        /// only): `seam inspect FILE` then shows each body's distance from its single-world
+        /// copy.
+        #[arg(long, value_name = "FILE")]
+        record: Option<std::path::PathBuf>,
         #[command(flatten)]
         output: Output,
     },
@@ -186,8 +193,54 @@ pub(crate) enum Command {
         /// decoder reads it.
         #[arg(long)]
         key: Option<String>,
+        /// Record every pod incarnation's ticks and the faults into FILE (see `seam inspect`).
+        #[arg(long, value_name = "FILE")]
+        record: Option<std::path::PathBuf>,
         #[command(flatten)]
         output: Output,
+    },
+    /// Look at a recording: a page to scrub through, a still, or the page's own timings.
+    ///
+    /// Writes one self-contained HTML page (FILE.html unless --out says where; nothing in it
+    /// is fetched from elsewhere): cluster regions and spread seen from above, bodies filled in
+    /// their owner's colour, the proxies of the world chosen outlined in their owners' colours,
+    /// hand-offs as rings, routed ops as arrows from the issuer's region to the target,
+    /// contacts sent back as crosses, a per-cluster tick-time strip, a timeline to play, pause,
+    /// step (arrow keys) and scrub. Click a body for its owners over the run and, in a `seam
+    /// compare` recording, its distance from its single-world copy. Recordings come from `seam
+    /// run`, `seam compare` and `seam chaos` with `--record FILE`; the format is documented in
+    /// bench/src/record/mod.rs.
+    Inspect {
+        /// The recording.
+        file: std::path::PathBuf,
+        /// Where to write the page (default: FILE.html).
+        #[arg(long, value_name = "PAGE")]
+        out: Option<std::path::PathBuf>,
+        /// Serve the page on loopback (see --addr) until Ctrl-C instead of writing it.
+        #[arg(long)]
+        serve: bool,
+        /// Where --serve and --measure listen (port 0: any free port).
+        #[arg(long, default_value = "127.0.0.1:0", value_name = "ADDR")]
+        addr: String,
+        /// Draw the view at --tick into this PNG instead.
+        #[arg(long, value_name = "PNG")]
+        png: Option<std::path::PathBuf>,
+        /// The tick a still shows (the first recorded at or after it).
+        #[arg(long, default_value_t = 0)]
+        tick: u64,
+        /// In a still, outline this cluster's proxies in their owners' colours.
+        #[arg(long, value_name = "CLUSTER")]
+        world: Option<String>,
+        /// A still's size, WIDTHxHEIGHT pixels.
+        #[arg(long, default_value = "1200x800")]
+        size: String,
+        /// Load the page in headless Chromium (Debian's chromium and chromium-driver) and
+        /// print what it measured of itself: load time and random-tick scrub rate.
+        #[arg(long)]
+        measure: bool,
+        /// Ticks --measure draws back to back.
+        #[arg(long, default_value_t = 300)]
+        frames: u32,
     },
     /// One cluster pod: runs its part of a scene over a transport (started by `seam run`, or by
     /// hand on each host).
@@ -350,6 +403,24 @@ impl Knobs {
             ticks: self.ticks,
         }
     }
+}
+
+/// Recording a run, and looking at it while it runs.
+#[derive(clap::Args, Clone)]
+pub(crate) struct RecordArgs {
+    /// Record the run into FILE: each pod writes its own stream (what it owned and where,
+    /// its proxies, the routed ops it applied, contacts reported to it, its tick time), merged
+    /// at the end. Look at it with `seam inspect FILE`.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) record: Option<std::path::PathBuf>,
+    /// Serve the inspector on loopback while the pods run, updated four times a second from
+    /// what they record; it stops with the run (keep the whole run with --record FILE and
+    /// `seam inspect FILE --serve`).
+    #[arg(long)]
+    pub(crate) inspect: bool,
+    /// Where --inspect listens (port 0: any free port, printed).
+    #[arg(long, default_value = "127.0.0.1:0", value_name = "ADDR")]
+    pub(crate) inspect_addr: String,
 }
 
 /// How a command prints what it measured.

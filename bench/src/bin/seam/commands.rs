@@ -7,21 +7,37 @@ use seam_bench::console::Progress;
 use seam_bench::node;
 use seam_bench::run::{self, RunPlan};
 
-use crate::cli::Output;
+use crate::cli::{Output, RecordArgs};
+use seam_bench::inspect::{LiveRecording, Served, Server};
+use seam_bench::record::PartsDir;
+use std::path::Path;
 
 /// `seam compare`: one trial per scene; with `--markdown`, one table with a row each.
 pub(crate) fn compare(
     scenes: &[std::path::PathBuf],
     settings: &TrialSettings,
     trace: Option<&str>,
+    record: Option<&Path>,
     output: Output,
 ) -> Result<(), String> {
+    if record.is_some() && scenes.len() != 1 {
+        return Err("--record writes one recording: give one scene".into());
+    }
     let mut results = Vec::new();
     let mut progress = Progress::new(Some(scenes.len() as u64));
     for path in scenes {
         progress.status(&format!("{}: split and one world", path.display()));
         let scene = seam_bench::scene::load(path).map_err(|e| e.to_string())?;
-        let result = accuracy::run_trial(&scene, settings, &run::fresh_run_id(), trace)?;
+        let result =
+            accuracy::run_recorded_trial(&scene, settings, &run::fresh_run_id(), trace, record)?;
+        if let Some(out) = record {
+            let size = std::fs::metadata(out).map(|m| m.len()).unwrap_or(0);
+            eprintln!(
+                "seam compare: recorded the split run and the single world: {:.1} MB -> {}",
+                size as f64 / 1e6,
+                out.display()
+            );
+        }
         progress.step(&path.display().to_string());
         if output.json {
             println!(
@@ -121,7 +137,7 @@ fn node_command() -> Result<Vec<std::ffi::OsString>, String> {
 }
 
 /// `seam run`: this executable starts the pods.
-pub(crate) fn run_scene(mut plan: RunPlan) -> Result<run::RunReport, String> {
+pub(crate) fn run_scene(mut plan: RunPlan, record: &RecordArgs) -> Result<run::RunReport, String> {
     plan.node_command = node_command()?;
     let stop = node::stop_flag()?;
     eprintln!(
@@ -129,8 +145,45 @@ pub(crate) fn run_scene(mut plan: RunPlan) -> Result<run::RunReport, String> {
         plan.scene.display(),
         seam_transport::redact_url(&plan.transport)
     );
+    let parts = if record.record.is_some() || record.inspect {
+        Some(PartsDir::beside(record.record.as_deref()).map_err(|e| e.to_string())?)
+    } else {
+        None
+    };
+    plan.record_dir = parts.as_ref().map(|p| p.dir.clone());
+    let live = match (&parts, record.inspect) {
+        (Some(parts), true) => {
+            let live = LiveRecording::watch(&parts.dir);
+            let server = Server::start(&record.inspect_addr, Served::Live(live.clone()))?;
+            eprintln!("seam run: inspector at {}", server.url());
+            Some((live, server))
+        }
+        _ => None,
+    };
+    let report = run_pods_shown(&plan, &stop);
+    if let (Some((live, _server)), Some(parts)) = (&live, &parts) {
+        live.finish(&parts.dir);
+        if let Some(problem) = live.problem() {
+            eprintln!("seam run: inspector: {problem}");
+        }
+    }
+    if let (Some(parts), Some(out)) = (&parts, &record.record) {
+        // Even a failed run's recording is worth keeping: it shows what went wrong.
+        match parts.merge_into(out, &[], "seam run") {
+            Ok(summary) => eprintln!("seam run: {}", summary.line(out)),
+            Err(e) => eprintln!("seam run: cannot write {}: {e}", out.display()),
+        }
+    }
+    report
+}
+
+/// `seam run`'s pods, with progress on the console.
+fn run_pods_shown(
+    plan: &RunPlan,
+    stop: &std::sync::atomic::AtomicBool,
+) -> Result<run::RunReport, String> {
     let shown = Progress::new(None);
-    run::run(&plan, &stop, |progress| {
+    run::run(plan, stop, |progress| {
         let pods: Vec<String> = progress
             .pods
             .iter()
@@ -152,7 +205,11 @@ pub(crate) fn seconds(value: f64) -> std::time::Duration {
     std::time::Duration::try_from_secs_f64(value).unwrap_or_default()
 }
 
-pub(crate) fn chaos(mut plan: ChaosPlan, output: Output) -> Result<(), String> {
+pub(crate) fn chaos(
+    mut plan: ChaosPlan,
+    record: Option<&Path>,
+    output: Output,
+) -> Result<(), String> {
     if plan.duration < std::time::Duration::from_secs(10) {
         return Err("--duration-s must be at least 10".into());
     }
@@ -167,9 +224,20 @@ pub(crate) fn chaos(mut plan: ChaosPlan, output: Output) -> Result<(), String> {
         plan.duration.as_secs_f64(),
         plan.fault_every.as_secs_f64()
     );
+    let parts = match record {
+        Some(out) => Some(PartsDir::beside(Some(out)).map_err(|e| e.to_string())?),
+        None => None,
+    };
+    plan.record_dir = parts.as_ref().map(|p| p.dir.clone());
     let progress = Progress::new(None);
     let report = seam_bench::chaos::run(&plan, &stop, |line| progress.status(line))?;
     drop(progress);
+    if let (Some(parts), Some(out)) = (&parts, record) {
+        let summary = parts
+            .merge_into(out, &report.fault_log, "seam chaos")
+            .map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+        eprintln!("seam chaos: {}", summary.line(out));
+    }
     output.report(
         &report,
         seam_bench::chaos::table,
@@ -243,4 +311,126 @@ fn load_scenes(
                 .map_err(|e| format!("{e} (run from the repository root, or pass --scene FILE)"))
         })
         .collect()
+}
+
+/// What `seam inspect` does.
+pub(crate) struct InspectPlan {
+    pub(crate) file: std::path::PathBuf,
+    pub(crate) out: Option<std::path::PathBuf>,
+    pub(crate) serve: bool,
+    pub(crate) addr: String,
+    pub(crate) png: Option<std::path::PathBuf>,
+    pub(crate) tick: u64,
+    pub(crate) world: Option<String>,
+    pub(crate) size: String,
+    pub(crate) measure: bool,
+    pub(crate) frames: u32,
+}
+
+/// `seam inspect`.
+pub(crate) fn inspect(plan: &InspectPlan) -> Result<(), String> {
+    use seam_bench::inspect::{PageMode, StillOptions, browser, page, render_still};
+    use seam_bench::record::Recording;
+    let shown = plan.file.display();
+    let bytes = std::fs::read(&plan.file).map_err(|e| format!("cannot read {shown}: {e}"))?;
+    // Read it here first, so a bad file is an error on the console rather than in the page.
+    let recording = Recording::parse(&bytes).map_err(|e| format!("{shown}: {e}"))?;
+    if recording.cut_short {
+        eprintln!(
+            "seam inspect: {shown} ends inside a chunk; the whole chunks before it are shown"
+        );
+    }
+    if let Some(png) = &plan.png {
+        let (w, h) = plan
+            .size
+            .split_once('x')
+            .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+            .filter(|&(w, h)| (64..=8192).contains(&w) && (64..=8192).contains(&h))
+            .ok_or_else(|| format!("--size {:?}: WIDTHxHEIGHT, 64 to 8192 each", plan.size))?;
+        let world = match &plan.world {
+            Some(name) => Some(
+                recording
+                    .header
+                    .streams
+                    .iter()
+                    .position(|s| s == name)
+                    .ok_or_else(|| {
+                        format!(
+                            "--world {name:?}: the recording's clusters are {}",
+                            recording.header.streams.join(", ")
+                        )
+                    })? as u16,
+            ),
+            None => None,
+        };
+        let options = StillOptions {
+            tick: plan.tick,
+            size: (w, h),
+            world,
+        };
+        let drawn = render_still(&recording, &options, png)?;
+        eprintln!("seam inspect: tick {drawn} -> {}", png.display());
+        return Ok(());
+    }
+    if plan.measure {
+        // The page as `seam inspect FILE` writes it (the recording inside), then as `--serve`
+        // serves it (fetched).
+        let file = std::env::temp_dir().join(format!("seam-measure-{}.html", std::process::id()));
+        std::fs::write(&file, page(PageMode::Embedded(&bytes)))
+            .map_err(|e| format!("cannot write {}: {e}", file.display()))?;
+        let embedded = browser::measure(&format!("file://{}", file.display()), plan.frames);
+        let _ = std::fs::remove_file(&file);
+        let server = Server::start(&plan.addr, Served::Recording(std::sync::Arc::new(bytes)))?;
+        let fetched = browser::measure(&server.url(), plan.frames);
+        let mut threw = false;
+        for (how, figures) in [("page file", embedded?), ("served page", fetched?)] {
+            threw |= !figures.errors.is_empty();
+            println!(
+                "{shown}: {how}: {} ticks, {} hand-offs; loaded in {:.0} ms, scrubbed at {:.0} ticks/s ({} drawn){}",
+                figures.ticks,
+                figures.handoffs,
+                figures.load_ms,
+                figures.scrub_fps,
+                plan.frames,
+                if figures.errors.is_empty() {
+                    String::new()
+                } else {
+                    format!("; page errors: {}", figures.errors.join("; "))
+                }
+            );
+        }
+        return if threw {
+            Err("the page threw (above)".into())
+        } else {
+            Ok(())
+        };
+    }
+    if plan.serve {
+        let server = Server::start(&plan.addr, Served::Recording(std::sync::Arc::new(bytes)))?;
+        eprintln!("seam inspect: {} (Ctrl-C to stop)", server.url());
+        let stop = node::stop_flag()?;
+        while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+        return Ok(());
+    }
+    let out = plan.out.clone().unwrap_or_else(|| {
+        let mut name = plan.file.as_os_str().to_owned();
+        name.push(".html");
+        name.into()
+    });
+    std::fs::write(&out, page(PageMode::Embedded(&bytes)))
+        .map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+    eprintln!(
+        "seam inspect: {} ticks of {} -> {} (open it in a browser)",
+        recording
+            .chunks
+            .iter()
+            .map(seam_bench::record::Chunk::tick)
+            .max()
+            .unwrap_or(0),
+        recording.header.scene,
+        out.display()
+    );
+    Ok(())
 }

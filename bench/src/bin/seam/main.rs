@@ -28,35 +28,34 @@ fn main() -> ExitCode {
             layers,
             hosts,
             in_phase,
+            record,
             output,
-        } => run_scene(RunPlan {
-            scene,
-            transport: expand_transport(&transport),
-            rate,
-            ticks,
-            proxy_mode: model.proxy_mode,
-            authority: model.authority,
-            replication_interval: model.replication_interval,
-            coupling: !model.no_coupling,
-            quantize: model.quantize,
-            keyframe_ticks: model.keyframe_ticks,
-            layers,
-            run_id: run::fresh_run_id(),
-            node_command: Vec::new(),
-            start_delay: std::time::Duration::from_millis(750),
-            in_phase,
-            hosts: run::HostsPlan {
-                count: hosts.hosts,
-                redis: expand_transport(&hosts.redis),
-                delay: seam_bench::relay::Delay {
-                    base: std::time::Duration::from_secs_f64(hosts.delay_ms.max(0.0) / 1e3),
-                    jitter: std::time::Duration::from_secs_f64(hosts.jitter_ms.max(0.0) / 1e3),
+        } => run_scene(
+            RunPlan {
+                rate,
+                ticks,
+                proxy_mode: model.proxy_mode,
+                authority: model.authority,
+                replication_interval: model.replication_interval,
+                coupling: !model.no_coupling,
+                quantize: model.quantize,
+                keyframe_ticks: model.keyframe_ticks,
+                layers,
+                in_phase,
+                hosts: run::HostsPlan {
+                    count: hosts.hosts,
+                    redis: expand_transport(&hosts.redis),
+                    delay: seam_bench::relay::Delay {
+                        base: std::time::Duration::from_secs_f64(hosts.delay_ms.max(0.0) / 1e3),
+                        jitter: std::time::Duration::from_secs_f64(hosts.jitter_ms.max(0.0) / 1e3),
+                    },
+                    delayed_host: hosts.delayed_host,
+                    namespaces: !hosts.no_namespaces,
                 },
-                delayed_host: hosts.delayed_host,
-                namespaces: !hosts.no_namespaces,
+                ..RunPlan::new(scene, expand_transport(&transport))
             },
-            track_flips: false,
-        })
+            &record,
+        )
         .and_then(|report| {
             output.report(&report, run::table, run::markdown);
             if report.ownership.holds() {
@@ -73,8 +72,15 @@ fn main() -> ExitCode {
             scenes,
             knobs,
             trace,
+            record,
             output,
-        } => compare(&scenes, &knobs.settings(), trace.as_deref(), output),
+        } => compare(
+            &scenes,
+            &knobs.settings(),
+            trace.as_deref(),
+            record.as_deref(),
+            output,
+        ),
         Command::Sweep {
             scenes,
             quick,
@@ -92,6 +98,7 @@ fn main() -> ExitCode {
             layers,
             seed,
             key,
+            record,
             output,
         } => chaos(
             ChaosPlan {
@@ -104,9 +111,34 @@ fn main() -> ExitCode {
                 seed,
                 node_command: Vec::new(),
                 key,
+                record_dir: None,
             },
+            record.as_deref(),
             output,
         ),
+        Command::Inspect {
+            file,
+            out,
+            serve,
+            addr,
+            png,
+            tick,
+            world,
+            size,
+            measure,
+            frames,
+        } => commands::inspect(&commands::InspectPlan {
+            file,
+            out,
+            serve,
+            addr,
+            png,
+            tick,
+            world,
+            size,
+            measure,
+            frames,
+        }),
         Command::Network {
             scenes,
             delays_ms,
