@@ -14,7 +14,13 @@ use seam_sim::BodyRole;
 use seam_sim::wire::{ClusterId, EntityId};
 use seam_tests::{TestContext, ball_at};
 
-seam_tests::backend_tests!([shm: Shm], [a_handoff_whose_frame_is_lost_still_lands]);
+seam_tests::backend_tests!(
+    [shm: Shm],
+    [
+        a_handoff_whose_frame_is_lost_still_lands,
+        a_handoff_from_a_neighbour_a_tick_ahead_is_taken_at_its_own_tick
+    ]
+);
 
 /// Two neighbouring clusters on `url`, zero gravity, scripted authority, each tuned by `tune`
 /// (its index, both ids, its configuration); returns them and their ids.
@@ -33,6 +39,45 @@ fn pair(
         })
         .collect();
     (clusters, ids[0], ids[1])
+}
+
+/// Free-running clusters that do not tick together: A always ticks just before B, so each
+/// frame B reads is of a tick B has not stepped yet. A hand-off in such a frame carries the
+/// body's state after A's step; B takes it at B's next tick, so the body is stepped once per
+/// tick across the hand-off and ends where one world would have it (before: B took it at
+/// once and stepped it again, one tick ahead — 0.1 m here, 6.7 m for a 400 m/s shot at 60 Hz).
+fn a_handoff_from_a_neighbour_a_tick_ahead_is_taken_at_its_own_tick(ctx: &TestContext) {
+    let (mut clusters, a, b) = pair(&ctx.url(), |_, _, _| {});
+    let speed = 6.0;
+    let ball = ball_at(-1.0, a).velocity([speed, 0.0, 0.0]);
+    clusters[0]
+        .spawn_owned(&ball, BodyRole::Dynamic)
+        .expect("spawn");
+    let rounds = 30u32;
+    for round in 0..rounds {
+        if round == 10 {
+            clusters[0]
+                .transfer_authority(ball.id, b)
+                .expect("hand over");
+        }
+        for cluster in &mut clusters {
+            cluster.tick(|_, _| {}).expect("tick");
+        }
+    }
+    let b_world = clusters[1].sim();
+    let info = b_world.info(ball.id).expect("B has the ball");
+    assert_eq!(info.owner, b, "B owns the ball");
+    assert_eq!(b_world.tick(), u64::from(rounds));
+    // Zero gravity, nothing to meet: one world moves it speed · dt a step, for every step.
+    let dt = clusters[1].config().dt;
+    let expected = -1.0 + speed * dt * rounds as f32;
+    let x = b_world.state(ball.id).expect("state").position[0];
+    assert!(
+        (x - expected).abs() < 1e-3,
+        "after {rounds} ticks the ball is at x = {x}, one world has it at {expected} \
+         ({:.2} ticks ahead)",
+        (x - expected) / (speed * dt)
+    );
 }
 
 fn a_handoff_whose_frame_is_lost_still_lands(ctx: &TestContext) {

@@ -154,15 +154,19 @@ fn the_page_in_chromium_shows_the_runners_owner_change() {
         .as_u64()
         .unwrap_or_else(|| panic!("the page found no hand-off of the runner to east: {handoff}"));
     assert_eq!(handoff["from"], json!("west"));
-    let before = tick - 1;
     let shown = browser
         .eval(&format!("return seam.seek({tick});"))
         .expect("seek");
     assert_eq!(shown, json!(tick), "the page did not scrub to the hand-off");
+    // Before it (and before any tick in transit, owned by nobody), west owned it.
     let owner_before = browser
-        .eval(&format!("return seam.ownerOf('runner', {before});"))
+        .eval(&format!(
+            "for (let t = {tick} - 1; t > 0; t--) {{ const o = seam.ownerOf('runner', t); \
+             if (o) return [t, o]; }} return null;"
+        ))
         .expect("owner");
-    assert_eq!(owner_before, json!("west"));
+    assert_eq!(owner_before[1], json!("west"), "{owner_before}");
+    let before = owner_before[0].as_u64().unwrap_or(0);
     let selection = browser
         .eval("return seam.select('runner');")
         .expect("select");

@@ -85,6 +85,11 @@ pub struct Cluster {
     /// an older hand-off to this cluster arriving after that is not taken (kept for a while,
     /// see [`RELEASED_FOR`]).
     released: IdMap<EntityId, (u32, u64)>,
+    /// Hand-offs to this cluster whose state is from a later tick than this world's
+    /// (free-running: the old owner ticked after this cluster's last tick and before this
+    /// one), with the cluster that sent each: taken at the tick the state belongs to, so the
+    /// body is not stepped twice for one tick.
+    early_handoffs: IdMap<EntityId, (EntityState, ClusterId)>,
     custom_proxy: Option<Box<dyn CustomProxy>>,
     replication_channel: String,
     /// Tables reused by every replication frame this cluster encodes.
@@ -189,6 +194,7 @@ impl Cluster {
             transfers: IdMap::default(),
             handed: IdMap::default(),
             released: IdMap::default(),
+            early_handoffs: IdMap::default(),
             custom_proxy: None,
             stats: ClusterStats::default(),
             liveness,
@@ -498,8 +504,10 @@ impl Cluster {
         frames: TickFrames,
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
-        // Reconcile the world with what the neighbours replicated.
+        // Reconcile the world with what the neighbours replicated: first the hand-offs held for
+        // this tick, then the frames.
         self.interest.expire(self.sim.tick());
+        self.take_early_handoffs();
         let keep_last = !self.config.world.is_empty();
         for frame in frames.replication {
             self.reconcile(&frame);

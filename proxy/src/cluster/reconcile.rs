@@ -11,6 +11,10 @@ use crate::interest::extent;
 
 use super::{Cluster, within};
 
+/// Hand-offs held for a later tick at most (beyond, one is taken at once, as before holding):
+/// bounds what a neighbour's frames can make this cluster keep.
+const MAX_EARLY_HANDOFFS: usize = 1 << 16;
+
 /// The role an entity's owner gives its body: dynamic if it is simulated, else Fixed (a body
 /// its old owner moved itself stands still until game code here moves it).
 pub(super) fn owner_role(state: &EntityState) -> BodyRole {
@@ -65,8 +69,88 @@ impl Cluster {
                 self.stats.states_rejected += 1;
                 continue;
             }
+            if self.hold_early_handoff(state, from) {
+                listed.insert(state.id, ());
+                continue;
+            }
             let known = self.sim.info(state.id).map(|i| (i.owner, i.epoch));
-            let outcome = match known {
+            let outcome = self.reconcile_state(state, from, known, &mut listed);
+            if outcome.is_err() {
+                self.stats.states_rejected += 1;
+                tracing::debug!(
+                    cluster = %me,
+                    %from,
+                    entity = %state.id,
+                    claimed_owner = %state.cluster_id,
+                    known = ?known,
+                    epoch = state.epoch,
+                    "state rejected"
+                );
+            }
+        }
+        // Proxies of this neighbour that its frame no longer lists have left (or were
+        // destroyed): nothing else is modelled. A delta frame without its keyframe lists only
+        // what changed, so it says nothing of the others.
+        if !frame.is_whole() {
+            return;
+        }
+        self.despawn_departed(from, &listed);
+    }
+
+    /// A hand-off to this cluster whose state is from the tick this world is about to step to
+    /// (free-running: the old owner stepped the body and published after this cluster's last
+    /// tick, as between staggered pods): held until that tick, so the body is taken where it
+    /// is at the tick it is taken and not stepped twice for one tick. Its proxy stays where the
+    /// last frame put it. A state further ahead means this world is behind its neighbours
+    /// (stalled, or catching up): holding it would leave the body with no owner for as long,
+    /// so it is taken at once, as it always was. Returns whether `state` was held.
+    fn hold_early_handoff(&mut self, state: &EntityState, from: ClusterId) -> bool {
+        let early = self.free_running
+            && state.cluster_id == self.config.cluster_id
+            && state.tick == self.sim.tick() + 1
+            && self.early_handoffs.len() < MAX_EARLY_HANDOFFS;
+        if early {
+            self.early_handoffs.insert(state.id, (*state, from));
+        }
+        early
+    }
+
+    /// Takes the held hand-offs whose tick this world has reached (see
+    /// [`Self::hold_early_handoff`]).
+    pub(super) fn take_early_handoffs(&mut self) {
+        let tick = self.sim.tick();
+        let due: Vec<EntityId> = self
+            .early_handoffs
+            .iter()
+            .filter(|(_, (state, _))| state.tick <= tick)
+            .map(|(id, _)| *id)
+            .collect();
+        for id in due {
+            let Some((state, from)) = self.early_handoffs.swap_remove(&id) else {
+                continue;
+            };
+            let known = self.sim.info(id).map(|i| (i.owner, i.epoch));
+            if self
+                .reconcile_state(&state, from, known, &mut IdMap::default())
+                .is_err()
+            {
+                self.stats.states_rejected += 1;
+            }
+        }
+    }
+
+    /// Brings the world in line with one state of `from`'s frame; `known` is what the world
+    /// had of the entity (owner, epoch). Proxies listed are noted in `listed`.
+    fn reconcile_state(
+        &mut self,
+        state: &EntityState,
+        from: ClusterId,
+        known: Option<(ClusterId, u32)>,
+        listed: &mut IdMap<EntityId, ()>,
+    ) -> Result<(), ()> {
+        let me = self.config.cluster_id;
+        {
+            match known {
                 // Handed (back) to this cluster, which owns it already — a repeat, or a return
                 // to a pod that was only stalled and kept simulating it: nothing to do but
                 // learn the epoch.
@@ -111,26 +195,13 @@ impl Cluster {
                         .map_err(|_| ())
                 }
                 None => Ok(()),
-            };
-            if outcome.is_err() {
-                self.stats.states_rejected += 1;
-                tracing::debug!(
-                    cluster = %me,
-                    %from,
-                    entity = %state.id,
-                    claimed_owner = %state.cluster_id,
-                    known = ?known,
-                    epoch = state.epoch,
-                    "state rejected"
-                );
             }
         }
-        // Proxies of this neighbour that its frame no longer lists have left (or were
-        // destroyed): nothing else is modelled. A delta frame without its keyframe lists only
-        // what changed, so it says nothing of the others.
-        if !frame.is_whole() {
-            return;
-        }
+    }
+
+    /// Despawns the proxies of `from` its whole frame did not list (and that are not in a
+    /// hand-off from this cluster).
+    fn despawn_departed(&mut self, from: ClusterId, listed: &IdMap<EntityId, ()>) {
         let departed: Vec<EntityId> = self
             .sim
             .entities()
