@@ -104,14 +104,14 @@ pub fn run(
 /// The trials as text, one line each.
 pub fn table(trials: &[DelayTrial]) -> String {
     let mut out = format!(
-        "{:<16} {:>9} | {:>10} {:>8} | {:>10} {:>9} | {:>5} {:>11} {:>11} | {:>9} {:>10}\n",
+        "{:<16} {:>9} | {:>10} {:>8} | {:>10} {:>9} | {:>15} {:>11} {:>11} | {:>9} {:>10}\n",
         "scene",
         "delay ms",
         "hit recall",
         "hits",
         "pos RMS m",
         "pos max m",
-        "ops",
+        "ops sent/applied",
         "op p50 tick",
         "op max tick",
         "hand-offs",
@@ -121,14 +121,14 @@ pub fn table(trials: &[DelayTrial]) -> String {
         let a = &t.result.accuracy;
         let c = &t.result.cost;
         out += &format!(
-            "{:<16} {:>9} | {:>10} {:>8} | {:>10.4} {:>9.3} | {:>5} {:>11} {:>11} | {:>9} {:>10}\n",
+            "{:<16} {:>9} | {:>10} {:>8} | {:>10.4} {:>9.3} | {:>15} {:>11} {:>11} | {:>9} {:>10}\n",
             t.result.scene,
             t.delay_ms,
             a.hit_recall.map_or("-".to_owned(), |r| format!("{r:.3}")),
             format!("{}/{}", a.hits_matched, a.hits_reference),
             a.position_rms_m,
             a.position_max_m,
-            c.ops,
+            format!("{}/{}", c.ops_routed, c.ops),
             c.op_delay_p50_ticks,
             c.op_delay_max_ticks,
             format!("{} ({} untracked)", a.handoffs, a.handoffs_untracked),
@@ -151,13 +151,13 @@ pub fn write(trials: &[DelayTrial], out: &Path) -> Result<Vec<PathBuf>, String> 
     let mut file =
         std::fs::File::create(&csv).map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
     let mut text = String::from(
-        "scene,delay_ms,hit_recall,hits_matched,hits_reference,position_rms_m,position_max_m,ops,op_delay_p50_ticks,op_delay_max_ticks,op_transport_p50_us,tick_p99_us,handoffs,handoffs_untracked,handoff_jump_position_m,handoff_jump_velocity_mps,simulated_as\n",
+        "scene,delay_ms,hit_recall,hits_matched,hits_reference,position_rms_m,position_max_m,ops_routed,ops,op_delay_p50_ticks,op_delay_max_ticks,op_transport_p50_us,tick_p99_us,handoffs,handoffs_untracked,handoff_jump_position_m,handoff_jump_velocity_mps,simulated_as\n",
     );
     for t in trials {
         let a = &t.result.accuracy;
         let c = &t.result.cost;
         text += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
             t.result.scene,
             t.delay_ms,
             a.hit_recall.map_or(String::new(), |r| r.to_string()),
@@ -165,6 +165,7 @@ pub fn write(trials: &[DelayTrial], out: &Path) -> Result<Vec<PathBuf>, String> 
             a.hits_reference,
             a.position_rms_m,
             a.position_max_m,
+            c.ops_routed,
             c.ops,
             c.op_delay_p50_ticks,
             c.op_delay_max_ticks,

@@ -211,6 +211,7 @@ pub fn run_free_trial_on_hosts(
             },
             proxies_mean: report.pods.iter().map(|p| p.proxies_peak as f64).sum(),
             ops: ops.ops,
+            ops_routed: report.totals.cluster.ops_routed,
             op_delay_p50_ticks: ops.ticks.p50,
             op_delay_max_ticks: ops.ticks.max,
             reference_tick_p50_us: 0.0,

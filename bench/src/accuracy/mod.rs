@@ -146,6 +146,9 @@ pub struct Cost {
     pub proxies_mean: f64,
     /// Routed ops applied.
     pub ops: u64,
+    /// Routed ops sent (by their issuers; one forwarded by a former owner counts once), so
+    /// that `ops_routed − ops` is what never got applied.
+    pub ops_routed: u64,
     /// Median delay of a routed op, ticks (issuer's write → owner's apply).
     pub op_delay_p50_ticks: u64,
     /// Largest delay of a routed op, ticks.
@@ -307,6 +310,7 @@ pub fn run_recorded_trial(
             bytes_per_state: per_state(&stats),
             proxies_mean: proxies_sum as f64 / ticks as f64,
             ops: ops.ops,
+            ops_routed: stats.ops_routed,
             op_delay_p50_ticks: ops.ticks.p50,
             op_delay_max_ticks: ops.ticks.max,
             reference_tick_p50_us: reference_time.summary().p50_ns as f64 / 1e3,
