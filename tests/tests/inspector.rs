@@ -116,18 +116,12 @@ fn a_recorded_run_has_every_tick_of_both_pods_and_the_runners_handoff() {
     assert!(ops > 0, "no routed op recorded on east");
 }
 
-#[test]
-fn the_page_in_chromium_shows_the_runners_owner_change() {
-    if !browser_here() {
-        return;
-    }
-    let dir = out_dir("inspector-page");
-    let rec = dir.join("crossfire.rec");
-    let recording = record_crossfire(&rec);
-    let bytes = std::fs::read(&rec).expect("recording");
-    let html = dir.join("crossfire.html");
+/// The page `seam inspect` writes for the recording at `rec` (beside it, `.html`), open in a
+/// fresh headless Chromium once it has loaded or thrown.
+fn open_page(rec: &Path) -> Browser {
+    let bytes = std::fs::read(rec).expect("recording");
+    let html = rec.with_extension("html");
     std::fs::write(&html, page(PageMode::Embedded(&bytes))).expect("page");
-
     let browser = Browser::start().expect("headless chromium");
     browser
         .goto(&format!("file://{}", html.display()))
@@ -138,6 +132,18 @@ fn the_page_in_chromium_shows_the_runners_owner_change() {
             Duration::from_secs(60),
         )
         .expect("the page finishes loading");
+    browser
+}
+
+#[test]
+fn the_page_in_chromium_shows_the_runners_owner_change() {
+    if !browser_here() {
+        return;
+    }
+    let dir = out_dir("inspector-page");
+    let rec = dir.join("crossfire.rec");
+    let recording = record_crossfire(&rec);
+    let browser = open_page(&rec);
     let errors = browser.eval("return seam.errors;").expect("errors");
     assert_eq!(errors, json!([]), "the page threw");
     let ticks = browser.eval("return seam.ticks.length;").expect("ticks");
@@ -357,19 +363,7 @@ fn a_compare_recording_carries_the_single_world_and_the_page_reads_its_error() {
     if !browser_here() {
         return;
     }
-    let bytes = std::fs::read(&out).expect("recording");
-    let html = dir.join("crossfire-compare.html");
-    std::fs::write(&html, page(PageMode::Embedded(&bytes))).expect("page");
-    let browser = Browser::start().expect("headless chromium");
-    browser
-        .goto(&format!("file://{}", html.display()))
-        .expect("page loads");
-    browser
-        .wait_for(
-            "window.seam && (seam.ready || seam.errors.length > 0)",
-            Duration::from_secs(60),
-        )
-        .expect("the page finishes loading");
+    let browser = open_page(&out);
     let name = recording.header.entity_name(worst);
     let selection = browser
         .eval(&format!("return seam.select({});", json!(name)))

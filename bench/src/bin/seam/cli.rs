@@ -210,38 +210,7 @@ pub(crate) enum Command {
     /// compare` recording, its distance from its single-world copy. Recordings come from `seam
     /// run`, `seam compare` and `seam chaos` with `--record FILE`; the format is documented in
     /// bench/src/record/mod.rs.
-    Inspect {
-        /// The recording.
-        file: std::path::PathBuf,
-        /// Where to write the page (default: FILE.html).
-        #[arg(long, value_name = "PAGE")]
-        out: Option<std::path::PathBuf>,
-        /// Serve the page on loopback (see --addr) until Ctrl-C instead of writing it.
-        #[arg(long)]
-        serve: bool,
-        /// Where --serve and --measure listen (port 0: any free port).
-        #[arg(long, default_value = "127.0.0.1:0", value_name = "ADDR")]
-        addr: String,
-        /// Draw the view at --tick into this PNG instead.
-        #[arg(long, value_name = "PNG")]
-        png: Option<std::path::PathBuf>,
-        /// The tick a still shows (the first recorded at or after it).
-        #[arg(long, default_value_t = 0)]
-        tick: u64,
-        /// In a still, outline this cluster's proxies in their owners' colours.
-        #[arg(long, value_name = "CLUSTER")]
-        world: Option<String>,
-        /// A still's size, WIDTHxHEIGHT pixels.
-        #[arg(long, default_value = "1200x800")]
-        size: String,
-        /// Load the page in headless Chromium (Debian's chromium and chromium-driver) and
-        /// print what it measured of itself: load time and random-tick scrub rate.
-        #[arg(long)]
-        measure: bool,
-        /// Ticks --measure draws back to back.
-        #[arg(long, default_value_t = 300)]
-        frames: u32,
-    },
+    Inspect(InspectArgs),
     /// One cluster pod: runs its part of a scene over a transport (started by `seam run`, or by
     /// hand on each host).
     ///
@@ -403,6 +372,41 @@ impl Knobs {
             ticks: self.ticks,
         }
     }
+}
+
+/// `seam inspect`'s flags.
+#[derive(clap::Args)]
+pub(crate) struct InspectArgs {
+    /// The recording.
+    pub(crate) file: std::path::PathBuf,
+    /// Where to write the page (default: FILE.html).
+    #[arg(long, value_name = "PAGE")]
+    pub(crate) out: Option<std::path::PathBuf>,
+    /// Serve the page on loopback (see --addr) until Ctrl-C instead of writing it.
+    #[arg(long)]
+    pub(crate) serve: bool,
+    /// Where --serve and --measure listen (port 0: any free port).
+    #[arg(long, default_value = "127.0.0.1:0", value_name = "ADDR")]
+    pub(crate) addr: String,
+    /// Draw the view at --tick into this PNG instead.
+    #[arg(long, value_name = "PNG")]
+    pub(crate) png: Option<std::path::PathBuf>,
+    /// The tick a still shows (the first recorded at or after it).
+    #[arg(long, default_value_t = 0)]
+    pub(crate) tick: u64,
+    /// In a still, outline this cluster's proxies in their owners' colours.
+    #[arg(long, value_name = "CLUSTER")]
+    pub(crate) world: Option<String>,
+    /// A still's size, WIDTHxHEIGHT pixels.
+    #[arg(long, default_value = "1200x800")]
+    pub(crate) size: String,
+    /// Load the page in headless Chromium (Debian's chromium and chromium-driver) and
+    /// print what it measured of itself: load time and random-tick scrub rate.
+    #[arg(long)]
+    pub(crate) measure: bool,
+    /// Ticks --measure draws back to back.
+    #[arg(long, default_value_t = 300)]
+    pub(crate) frames: u32,
 }
 
 /// Recording a run, and looking at it while it runs.

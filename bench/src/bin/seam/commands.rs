@@ -7,7 +7,7 @@ use seam_bench::console::Progress;
 use seam_bench::node;
 use seam_bench::run::{self, RunPlan};
 
-use crate::cli::{Output, RecordArgs};
+use crate::cli::{InspectArgs, Output, RecordArgs};
 use seam_bench::inspect::{LiveRecording, Served, Server};
 use seam_bench::record::PartsDir;
 use std::path::Path;
@@ -313,22 +313,8 @@ fn load_scenes(
         .collect()
 }
 
-/// What `seam inspect` does.
-pub(crate) struct InspectPlan {
-    pub(crate) file: std::path::PathBuf,
-    pub(crate) out: Option<std::path::PathBuf>,
-    pub(crate) serve: bool,
-    pub(crate) addr: String,
-    pub(crate) png: Option<std::path::PathBuf>,
-    pub(crate) tick: u64,
-    pub(crate) world: Option<String>,
-    pub(crate) size: String,
-    pub(crate) measure: bool,
-    pub(crate) frames: u32,
-}
-
 /// `seam inspect`.
-pub(crate) fn inspect(plan: &InspectPlan) -> Result<(), String> {
+pub(crate) fn inspect(plan: &InspectArgs) -> Result<(), String> {
     use seam_bench::inspect::{PageMode, StillOptions, browser, page, render_still};
     use seam_bench::record::Recording;
     let shown = plan.file.display();
