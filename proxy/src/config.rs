@@ -109,6 +109,21 @@ pub struct ClusterConfig {
     /// or its proxies despawned, and it is counted in `ClusterStats::neighbours_lost`
     /// (free-running ticks only; lock-step waits for it instead). 0 never gives up.
     pub neighbour_timeout_ticks: u64,
+    /// A routed write unanswered this many ticks after it was sent is sent again, to the
+    /// cluster this one then knows to own its target (see `crate::delivery`). Default 10
+    /// (167 ms at 60 Hz): an answer comes back within 2–3 ticks on one host and about 5 over
+    /// a 20 ms network, so a resend is almost always for a lost frame, and a repeat costs
+    /// only bytes (the owner applies each op once).
+    pub op_retry_ticks: u64,
+    /// A routed write older than this many ticks is not applied: the owner drops it, counted
+    /// in `ClusterStats::ops_dropped_stale`, and the sender stops resending it
+    /// (`ops_expired`). Age is counted on each holder's own clock, so clusters need not share
+    /// a tick count. Default 30 (0.5 s at 60 Hz): enough for two resends after lost frames
+    /// and a slow network, while a push applied later lands on a body that has moved on
+    /// (a metre at 2 m/s) in a scene that has moved on; writes caught by a neighbour's death
+    /// (noticed after `neighbour_timeout_ticks`, 1 s) therefore expire rather than land a
+    /// second late on the adopter.
+    pub max_op_age_ticks: u64,
     /// Largest magnitude accepted from another cluster for any coordinate of a replicated
     /// position, any component of a replicated velocity, or any component of a routed op
     /// (metres, m/s, rad/s, N, N·s): beyond it the state or
@@ -206,6 +221,8 @@ impl ClusterConfig {
             gravity: sim.gravity,
             transport: transport.to_owned(),
             neighbour_timeout_ticks: 60,
+            op_retry_ticks: 10,
+            max_op_age_ticks: 30,
             max_magnitude: 1.0e6,
             world: Vec::new(),
             authority: AuthorityMode::default(),

@@ -96,15 +96,34 @@
 //!
 //! # Routing
 //!
-//! A write on a remote-owned entity goes, once, in the next physics-events frame to the owner
-//! this cluster knows, which applies it just before its next step. Writes are validated before
-//! they are queued (NaN, infinity and unknown entities are refused at the caller). An op that
-//! reaches a cluster which no longer owns its target — it handed the entity over after the
-//! issuer routed the write — is forwarded, once, to the owner that cluster knows (the op is
-//! flagged on the wire, [`ClusterStats::ops_forwarded`]); a forwarded op that misses again, or
-//! one for an entity the receiver never owned, is dropped and counted in
-//! [`ClusterStats::ops_dropped_not_owner`]. So an op is applied at most once, and lost only
-//! with a lost frame or a dead owner. A joint between entities of different owners is refused
+//! A write on a remote-owned entity goes in the next physics-events frame to the owner this
+//! cluster knows, which applies it just before its next step. Writes are validated before
+//! they are queued (NaN, infinity and unknown entities are refused at the caller).
+//!
+//! **Delivery: at least once, applied once** (see `delivery`). Each op is named by its issuer
+//! and a number from the issuer's counter (started at the wall clock's microseconds, so a
+//! restarted pod does not reuse numbers). Every receiver answers every op in its next events
+//! frame to the sender ([`seam_sim::wire::OpAck`]): *done* — applied, dropped for good, or
+//! taken on to forward — or *not here*. The sender keeps each op until it is answered done,
+//! and sends it again every `op_retry_ticks` (and at once after *not here*) to the cluster it
+//! then knows to own the target: the new owner after a hand-off, the adopter after the owner
+//! was taken for dead — or applies it itself, if the entity is now its own. An owner
+//! remembers the numbers it has settled per issuer (the last 16 384, `delivery::WINDOW`) and never
+//! applies one twice: a repeat is answered and counted ([`ClusterStats::ops_repeated`]); a
+//! number older than the window is dropped, counted. An op older than `max_op_age_ticks` (its
+//! age counted on each holder's own clock) is dropped by the owner
+//! ([`ClusterStats::ops_dropped_stale`]), and its sender stops sending it
+//! ([`ClusterStats::ops_expired`], counted once no late answer came). An op reaching a
+//! cluster which no longer owns its target is taken on and forwarded, once, to the owner that
+//! cluster knows ([`ClusterStats::ops_forwarded`]), which then answers the forwarder; a
+//! forwarded op that misses again is answered *not here* to the forwarder, which sends it on
+//! where it knows the entity to be. An op whose entity neither the sender nor the receiver
+//! knows is dropped ([`ClusterStats::ops_dropped_gone`]). Memory is bounded: at most
+//! `MAX_UNANSWERED` (4 096) unanswered ops per destination (more are dropped, counted) and
+//! `MAX_ISSUERS` (256) windows of 2 KiB. Lost for good only: ops held by a sender that dies
+//! (its unanswered ops die with it, like anything it never published), and an op applied by
+//! an owner that dies before its answer goes out may be applied again by the adopter (if the
+//! adopted state already holds its effect). A joint between entities of different owners is refused
 //! (`create_joint` returns `None`). An impulse routed while the writer's proxy of its target is
 //! coupled is also added to that proxy, from the step it is written until the owner's next
 //! state of the entity: a blast on bodies of both sides pushes them apart together in the
@@ -141,8 +160,9 @@
 //! the first is kept), or as tagged further ahead than the sender could be (below). States from
 //! a cluster that does not own their entity, with NaN, a coordinate or velocity beyond
 //! `max_magnitude`, a rotation that is not one or a shape with no size are rejected and
-//! counted; so are routed ops with NaN, beyond `max_magnitude`, or for an entity not owned
-//! here. None of it panics or touches the world.
+//! counted; so are routed ops with NaN, beyond `max_magnitude`, too old, or repeated (an op
+//! for an entity not owned here is answered "not here"). None of it panics or touches the
+//! world.
 //!
 //! # Liveness
 //!
@@ -153,7 +173,8 @@
 //! cluster's own transport is down (`Transport::is_connected`, a Redis outage) nobody is taken
 //! for dead, and every neighbour's clock restarts when it comes back. A frame from a silent
 //! neighbour makes it alive again (`neighbours_rejoined`). A hand-off to a neighbour taken for
-//! dead is refused; writes queued for it are dropped and counted (`ops_dropped_owner_dead`). A
+//! dead is refused; writes for it wait, unsent, to go to the adopter of their entity (or
+//! expire, see Routing). A
 //! frame tagged further ahead than a live neighbour could be (pods share one schedule: beyond
 //! this cluster's own tick, or its last frame plus one tick per `dt` since, by more than twice
 //! the timeout) is dropped (`frames_implausible`): it could only be forged, and would otherwise
@@ -221,6 +242,8 @@
 //! - `inbox` — frames by sender and step count, for lock-step.
 //! - `interest` — which neighbour entities are modelled: [`extent`] against the region and
 //!   the room around this cluster's own bodies.
+//! - `delivery` — routed ops at least once and applied once: numbers settled per issuer,
+//!   ops unanswered per destination.
 //! - `adoption` — who adopts a dead neighbour's entities.
 //! - `authority` — who should own an entity: [`AuthorityPolicy`], the built-in [`Spatial`]
 //!   policy, [`AuthorityMode`].
@@ -240,6 +263,7 @@ mod cluster;
 mod config;
 mod contact_merge;
 mod dead_reckoning;
+mod delivery;
 mod error;
 mod inbox;
 mod interest;

@@ -50,7 +50,7 @@ impl Predictions {
         for r in routed {
             if let PhysicsOp::Impulse { target, impulse } = r.op
                 && r.issued_tick == tick
-                && !r.forwarded
+                && !r.forwarded()
             {
                 self.pending.push(Predicted {
                     target,

@@ -28,12 +28,14 @@ pub struct ClusterStats {
     pub proxies_spawned: u64,
     /// Proxies removed (entity left the region or its owner stopped listing it).
     pub proxies_despawned: u64,
-    /// Writes on remote-owned entities sent to their owners.
+    /// Writes on remote-owned entities made here and sent to their owners, each counted once
+    /// however often it is sent.
     pub ops_routed: u64,
     /// Routed writes received and applied here.
     pub ops_applied: u64,
-    /// Routed writes received for an entity this cluster does not own (any more): dropped.
-    pub ops_dropped_not_owner: u64,
+    /// Routed writes received for an entity this cluster does not own and could not forward:
+    /// answered "not here", so the sender sends them where it now knows the entity to be.
+    pub ops_not_here: u64,
     /// Routed writes received with invalid values (NaN, infinity): dropped.
     pub ops_dropped_invalid: u64,
     /// Routed writes with a value beyond `ClusterConfig::max_magnitude`: dropped.
@@ -127,9 +129,6 @@ pub struct ClusterStats {
     pub handoffs_reclaimed: u64,
     /// Adopted entities handed back to their owner when it was heard from again.
     pub entities_returned: u64,
-    /// Routed writes queued for a neighbour taken for dead or gone (see
-    /// `NeighbourStatus::is_gone`): not sent.
-    pub ops_dropped_owner_dead: u64,
     /// Frames tagged further ahead than a live sender could be (see the crate docs on
     /// liveness): dropped as forged.
     pub frames_implausible: u64,
@@ -137,20 +136,48 @@ pub struct ClusterStats {
     /// or returned adopted entities).
     pub handoffs_by_policy: u64,
     /// Routed writes received for an entity this cluster no longer owned and sent on, once,
-    /// to the owner it knew (a forwarded op that misses again is dropped and counted in
-    /// `ops_dropped_not_owner`).
+    /// to the owner it knew (this cluster then sees them answered; a forwarded op that misses
+    /// again is answered "not here" to it).
     pub ops_forwarded: u64,
+    /// Routed writes sent again: unanswered after `op_retry_ticks`, or answered "not here".
+    pub ops_resent: u64,
+    /// Routed writes this cluster sent that were answered as settled.
+    pub ops_acked: u64,
+    /// Routed writes received again after being settled here: answered, not applied again.
+    pub ops_repeated: u64,
+    /// Routed writes received older than `max_op_age_ticks`: dropped as stale.
+    pub ops_dropped_stale: u64,
+    /// Routed writes this cluster stopped sending, unanswered when `max_op_age_ticks` old:
+    /// any owner would drop them as stale (or one applied them and its answer was lost).
+    pub ops_expired: u64,
+    /// Routed writes dropped because their entity exists nowhere this cluster or the one it
+    /// was sent to knows of.
+    pub ops_dropped_gone: u64,
+    /// Routed writes received with a number older than the settled window of their issuer
+    /// (see `crate::delivery::WINDOW`): they cannot be told from repeats, so dropped.
+    pub ops_dropped_window: u64,
+    /// Routed writes not sent: already `crate::delivery::MAX_UNANSWERED` unanswered for their
+    /// owner.
+    pub ops_dropped_queue_full: u64,
+    /// Issuers whose settled numbers were forgotten to make room (see
+    /// `crate::delivery::MAX_ISSUERS`).
+    pub op_windows_forgotten: u64,
 }
 }
 
 impl ClusterStats {
-    /// Routed writes this cluster received and dropped, every reason: not the owner (after
-    /// one forward), invalid, absurd, or queued for a neighbour taken for dead.
+    /// Routed writes this cluster dropped for good, every reason: invalid, absurd, stale,
+    /// expired unanswered, their entity gone, out of the window, or the queue full. With
+    /// `ops_applied`, what became of every op (summed over clusters, each op ends in exactly
+    /// one of these unless an answer was lost and the sender let it expire).
     pub fn ops_dropped(&self) -> u64 {
-        self.ops_dropped_not_owner
-            + self.ops_dropped_invalid
+        self.ops_dropped_invalid
             + self.ops_dropped_absurd
-            + self.ops_dropped_owner_dead
+            + self.ops_dropped_stale
+            + self.ops_expired
+            + self.ops_dropped_gone
+            + self.ops_dropped_window
+            + self.ops_dropped_queue_full
     }
 
     /// Frames this cluster refused, every reason (the transport's own drops aside).
@@ -170,10 +197,13 @@ mod tests {
     #[test]
     fn sums_count_every_reason() {
         let one = ClusterStats {
-            ops_dropped_not_owner: 1,
             ops_dropped_invalid: 1,
             ops_dropped_absurd: 1,
-            ops_dropped_owner_dead: 1,
+            ops_dropped_stale: 1,
+            ops_expired: 1,
+            ops_dropped_gone: 1,
+            ops_dropped_window: 1,
+            ops_dropped_queue_full: 1,
             frames_malformed: 1,
             frames_wrong_version: 1,
             frames_wrong_sender: 1,
@@ -186,7 +216,7 @@ mod tests {
         two += &one;
         assert_eq!(
             (two.ops_dropped(), two.frames_refused(), two.ticks),
-            (8, 10, 14)
+            (14, 10, 14)
         );
     }
 }

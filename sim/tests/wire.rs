@@ -1,9 +1,9 @@
 //! The wire format: round trips, and untrusted bytes that must never panic.
 
 use seam_sim::wire::{
-    self, BodySpec, ClusterId, ContactReport, DeltaBase, EntityId, EntityState, PhysicsEventsFrame,
-    PhysicsOp, ReplicationEncoder, ReplicationFrame, ReplicationView, RoutedOp, SeamImpulseReport,
-    Shape, StateEncoding, WIRE_VERSION, WireError,
+    self, BodySpec, ClusterId, ContactReport, DeltaBase, EntityId, EntityState, OpAck,
+    PhysicsEventsFrame, PhysicsOp, ReplicationEncoder, ReplicationFrame, ReplicationView, RoutedOp,
+    SeamImpulseReport, Shape, StateEncoding, WIRE_VERSION, WireError,
 };
 
 const ENCODINGS: [StateEncoding; 2] = [StateEncoding::Exact, StateEncoding::Quantized];
@@ -87,11 +87,25 @@ fn events() -> PhysicsEventsFrame {
             .enumerate()
             .map(|(i, op)| RoutedOp {
                 op,
+                seq: 1_796_000_000_000_000 + i as u64,
+                issuer: (i % 2 == 1).then(|| ClusterId::from_u128(11)),
                 issued_ns: 1000 + i as u64,
                 issued_tick: 99,
-                forwarded: false,
+                age_ticks: i as u32,
             })
             .collect(),
+        acks: vec![
+            OpAck {
+                seq: 1_796_000_000_000_007,
+                issuer: None,
+                done: true,
+            },
+            OpAck {
+                seq: 12,
+                issuer: Some(ClusterId::from_u128(11)),
+                done: false,
+            },
+        ],
         contacts: vec![ContactReport {
             a: target,
             b: EntityId::from_u128(4),

@@ -491,7 +491,14 @@ fn op_after_hand_off_is_forwarded_once(ctx: &TestContext) {
     rounds(&mut clusters, 3);
     let (a, b) = (clusters[0].stats(), clusters[1].stats());
     assert_eq!(a.ops_forwarded, 1, "A sent it on: {a:?}");
-    assert_eq!((a.ops_applied, a.ops_dropped_not_owner), (0, 0), "{a:?}");
+    assert_eq!((a.ops_applied, a.ops_not_here), (0, 0), "{a:?}");
+    let acked = (a.ops_acked, clusters[1].stats().ops_acked);
+    assert_eq!(
+        acked,
+        (1, 1),
+        "B's op answered by A, which took it on; A's forward answered by B"
+    );
+    assert!(clusters.iter().all(|c| c.ops_unanswered() == 0));
     assert_eq!(b.ops_applied, 1, "B applied it: {b:?}");
     let v = clusters[1]
         .sim()
@@ -502,9 +509,11 @@ fn op_after_hand_off_is_forwarded_once(ctx: &TestContext) {
 }
 
 /// An op is forwarded at most once: when it reaches a cluster that no longer owns the target
-/// after being forwarded, it is dropped and counted, never sent on again or applied.
+/// after being forwarded, that cluster answers "not here" and the forwarder, which took the op
+/// on, sends it to where it now knows the entity to be: applied once, by the final owner.
 fn forwarded_op_is_never_forwarded_again(ctx: &TestContext) {
     let (mut clusters, ids, entity) = trio_with_a_ball(ctx);
+    let mass = 1000.0 * 4.0 / 3.0 * std::f32::consts::PI * 0.125;
     // A hands it to B; in the same round C, still seeing A as the owner, writes to it. B's
     // policy hands everything it owns to C at once, so the write A forwards to B finds it gone.
     clusters[1].set_authority_policy(Box::new(HandEverythingTo(ids[2])));
@@ -514,13 +523,13 @@ fn forwarded_op_is_never_forwarded_again(ctx: &TestContext) {
     lockstep_round(&mut clusters, TIMEOUT, |index, _, physics| {
         if index == 2 {
             assert_eq!(
-                physics.apply_impulse(entity.id, [1.0, 0.0, 0.0]),
+                physics.apply_impulse(entity.id, [mass, 0.0, 0.0]),
                 Ok(WriteOutcome::Routed)
             );
         }
     })
     .expect("round");
-    rounds(&mut clusters, 4);
+    rounds(&mut clusters, 8);
     assert_eq!(
         clusters[2].sim().info(entity.id).map(|i| i.owner),
         Some(ids[2]),
@@ -529,14 +538,20 @@ fn forwarded_op_is_never_forwarded_again(ctx: &TestContext) {
     let stats: Vec<_> = clusters.iter().map(|c| c.stats()).collect();
     let forwarded: u64 = stats.iter().map(|s| s.ops_forwarded).sum();
     let applied: u64 = stats.iter().map(|s| s.ops_applied).sum();
-    let dropped: u64 = stats.iter().map(|s| s.ops_dropped_not_owner).sum();
+    let not_here: u64 = stats.iter().map(|s| s.ops_not_here).sum();
     assert_eq!(
-        (forwarded, applied, dropped),
-        (1, 0, 1),
-        "forwarded once by A, dropped by B: {stats:?}"
+        (forwarded, not_here, applied),
+        (1, 1, 1),
+        "forwarded once by A, answered not here by B, applied by C: {stats:?}"
+    );
+    assert_eq!(
+        (stats[0].ops_resent, stats[2].ops_acked, stats[0].ops_acked),
+        (1, 1, 1),
+        "A sent it again, to C; C's op answered by A, A's resend by C: {stats:?}"
     );
     let v = clusters[2].sim().state(entity.id).expect("C's body").linvel;
-    assert_eq!(v, [0.0; 3], "applied nowhere");
+    assert!((v[0] - 1.0).abs() < 1e-3, "Δv = J/m, once: {v:?}");
+    assert!(clusters.iter().all(|c| c.ops_unanswered() == 0));
 }
 
 /// An authority policy that hands every entity its cluster owns to one neighbour.
@@ -717,11 +732,7 @@ fn third_cluster_routes_to_the_new_owner(ctx: &TestContext) {
         "B, the new owner, applied C's push once: {v}"
     );
     assert_eq!(clusters[1].stats().ops_applied, 1);
-    assert_eq!(
-        clusters[0].stats().ops_dropped_not_owner,
-        0,
-        "nothing went to A"
-    );
+    assert_eq!(clusters[0].stats().ops_not_here, 0, "nothing went to A");
 }
 
 /// Every applied op reports when it was issued, published, received and applied, in that

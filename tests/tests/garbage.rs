@@ -63,7 +63,7 @@ impl Tally {
             implausible: s.frames_implausible,
             ops_invalid: s.ops_dropped_invalid,
             ops_absurd: s.ops_dropped_absurd,
-            ops_not_owner: s.ops_dropped_not_owner,
+            ops_not_owner: s.ops_not_here,
             states_rejected: s.states_rejected,
         }
     }
@@ -146,15 +146,20 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
         from: neighbour,
         tick,
         published_ns: 0,
+        // Numbered apart, so none is taken for a repeat of another.
         ops: ops
             .into_iter()
-            .map(|op| RoutedOp {
+            .enumerate()
+            .map(|(i, op)| RoutedOp {
                 op,
+                seq: tick * 16 + i as u64,
+                issuer: None,
                 issued_ns: 0,
                 issued_tick: 0,
-                forwarded: false,
+                age_ticks: 0,
             })
             .collect(),
+        acks: Vec::new(),
         contacts: Vec::new(),
         impulses: Vec::new(),
         leaving: false,

@@ -208,30 +208,59 @@ pub struct FrameCounts {
     pub states_rejected: u64,
 }
 
-/// Routed ops, by what became of them.
+/// Routed ops, by what became of them (see `seam_proxy::ClusterStats`).
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct OpCounts {
-    /// Sent to an owner.
+    /// Made by game code (or the settling of seam contacts) and sent to an owner, each once
+    /// however often it was sent.
     pub routed: u64,
-    /// Applied by it.
+    /// Applied by an owner.
     pub applied: u64,
-    /// Dropped: the receiver did not own the target.
-    pub dropped_not_owner: u64,
-    /// Dropped: invalid values.
+    /// Dropped as too old: by a receiver (older than `max_op_age_ticks`) or by their sender
+    /// (unanswered that long).
+    pub dropped_stale: u64,
+    /// Dropped: their entity existed nowhere the sender or the receiver knew of.
+    pub dropped_gone: u64,
+    /// Dropped: invalid values, or values beyond the bound.
     pub dropped_invalid: u64,
-    /// Dropped: values beyond the bound.
-    pub dropped_absurd: u64,
-    /// Not sent: the owner was taken for dead.
-    pub dropped_owner_dead: u64,
+    /// Dropped: out of the settled window, or the sender's queue for the owner full.
+    pub dropped_overflow: u64,
+    /// Sends after the first.
+    pub resent: u64,
+    /// Received again after being settled: answered, not applied again.
+    pub repeated: u64,
+    /// Forwarded after a hand-off.
+    pub forwarded: u64,
+    /// Unanswered when their sender stopped at the end of the run (sent in its last ticks).
+    pub unanswered_at_end: u64,
+    /// Unanswered when their sender was killed (at its last progress line): they went with
+    /// it, applied or not.
+    pub unanswered_killed: u64,
 }
 
 impl OpCounts {
-    /// Routed and neither applied nor dropped by a receiver: in a frame lost to a full buffer or
-    /// an outage, or sent to a pod that died before applying it.
-    pub fn lost_in_transit(&self) -> u64 {
-        self.routed.saturating_sub(
-            self.applied + self.dropped_not_owner + self.dropped_invalid + self.dropped_absurd,
-        )
+    /// Everything an op can end as, summed: applied or dropped by a reason.
+    pub fn settled(&self) -> u64 {
+        self.applied
+            + self.dropped_stale
+            + self.dropped_gone
+            + self.dropped_invalid
+            + self.dropped_overflow
+    }
+
+    /// Routed and neither applied, nor dropped by a reason, nor still unanswered when its
+    /// sender stopped or was killed: lost. (An op applied by an owner that was killed before
+    /// its answer went out, then let expire by its sender, counts twice and can hide one.)
+    pub fn lost(&self) -> u64 {
+        self.routed
+            .saturating_sub(self.settled() + self.unanswered_at_end + self.unanswered_killed)
+    }
+
+    /// Outcomes beyond the ops routed: an op applied twice, or counted at its owner and also
+    /// unanswered at a sender that stopped or was killed, or applied and also let expire by a
+    /// sender whose answer was lost with a killed owner.
+    pub fn surplus(&self) -> u64 {
+        self.settled().saturating_sub(self.routed)
     }
 }
 
@@ -362,10 +391,19 @@ impl ChaosReport {
         let ops = OpCounts {
             routed: s.ops_routed,
             applied: s.ops_applied,
-            dropped_not_owner: s.ops_dropped_not_owner,
-            dropped_invalid: s.ops_dropped_invalid,
-            dropped_absurd: s.ops_dropped_absurd,
-            dropped_owner_dead: s.ops_dropped_owner_dead,
+            dropped_stale: s.ops_dropped_stale + s.ops_expired,
+            dropped_gone: s.ops_dropped_gone,
+            dropped_invalid: s.ops_dropped_invalid + s.ops_dropped_absurd,
+            dropped_overflow: s.ops_dropped_window + s.ops_dropped_queue_full,
+            resent: s.ops_resent,
+            repeated: s.ops_repeated,
+            forwarded: s.ops_forwarded,
+            unanswered_at_end: inputs.reports.iter().map(|r| r.ops_unanswered).sum(),
+            unanswered_killed: inputs
+                .dead_incarnations
+                .iter()
+                .map(|p| p.ops_unanswered)
+                .sum(),
         };
         recovery.neighbours_lost = s.neighbours_lost;
         recovery.neighbours_rejoined = s.neighbours_rejoined;
@@ -434,7 +472,7 @@ impl ChaosReport {
 
     /// Whether the run met every target: every planned fault kind injected and every fault
     /// survived, every injected frame accounted for, no entity lost or owned twice, every
-    /// adoption returned, memory within its bound, no panic, every pod ended well, nothing
+    /// adoption returned, no routed op lost, memory within its bound, no panic, every pod ended well, nothing
     /// else went wrong.
     pub fn holds(&self) -> bool {
         self.faults.all_survived()
@@ -443,6 +481,7 @@ impl ChaosReport {
             && self.accounted()
             && self.ownership.holds()
             && self.adoptions_returned()
+            && self.ops.lost() == 0
             && self.memory_holds()
             && self.panics == 0
             && self.exited_badly == 0
@@ -530,15 +569,23 @@ pub fn table(r: &ChaosReport) -> String {
     );
     let op = &r.ops;
     out += &format!(
-        "ops: {} routed, {} applied; dropped: {} not owner, {} invalid, {} absurd, {} owner \
-         dead; {} lost with a pod that died or a frame that never arrived\n",
+        "ops: {} routed, {} applied; dropped: {} too old, {} entity gone, {} invalid, {} \
+         overflow; {} unanswered at the end, {} with a killed sender; {} lost{}, {} settled \
+         beyond routed; {} resent, {} repeats not applied, {} forwarded\n",
         op.routed,
         op.applied,
-        op.dropped_not_owner,
+        op.dropped_stale,
+        op.dropped_gone,
         op.dropped_invalid,
-        op.dropped_absurd,
-        op.dropped_owner_dead,
-        op.lost_in_transit()
+        op.dropped_overflow,
+        op.unanswered_at_end,
+        op.unanswered_killed,
+        op.lost(),
+        mark(op.lost() == 0),
+        op.surplus(),
+        op.resent,
+        op.repeated,
+        op.forwarded
     );
     let rc = &r.recovery;
     out += &format!(
@@ -694,7 +741,8 @@ pub fn markdown(r: &ChaosReport) -> String {
         ("lost to full buffers", Right),
         ("implausible", Right),
         ("states rejected", Right),
-        ("ops routed / applied / lost in transit", Left),
+        ("ops routed / applied / too old / lost", Left),
+        ("resent / repeats", Left),
         ("taken for dead / rejoined", Left),
         (
             "disconnects / reconnects, s down (pods summed), publishes dropped",
@@ -709,11 +757,13 @@ pub fn markdown(r: &ChaosReport) -> String {
         grouped(fr.implausible),
         grouped(fr.states_rejected),
         format!(
-            "{} / {} / {}",
+            "{} / {} / {} / {}",
             grouped(op.routed),
             grouped(op.applied),
-            grouped(op.lost_in_transit())
+            grouped(op.dropped_stale),
+            grouped(op.lost())
         ),
+        pair(op.resent, op.repeated),
         pair(rc.neighbours_lost, rc.neighbours_rejoined),
         if redis {
             format!(

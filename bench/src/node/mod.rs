@@ -351,6 +351,7 @@ pub fn run_node(
     let mut record_time = LatencyRecorder::default();
     let (mut overruns, mut max_lag_ns, mut proxies_peak) = (0u64, 0u64, 0usize);
     let mut last_progress = Instant::now();
+    let mut ops_reported = op_counts(&pod.cluster().stats());
     // The schedule stops the policy's hand-offs in the last ticks, so that those under way
     // are taken before the neighbours stop (see `Cluster::stop_policy_handoffs`).
     while let Some(due) = schedule
@@ -374,7 +375,12 @@ pub fn run_node(
             overruns += 1;
         }
         let done = due.tick + 1;
-        if last_progress.elapsed() >= PROGRESS_EVERY || done == ticks {
+        // Also after a tick that settled or sent a routed op: a pod killed a moment later
+        // leaves counts that add up with its neighbours' (see `seam chaos`'s op accounting).
+        let ops_now = op_counts(&pod.cluster().stats());
+        let ops_moved = ops_now != ops_reported;
+        if last_progress.elapsed() >= PROGRESS_EVERY || done == ticks || ops_moved {
+            ops_reported = ops_now;
             last_progress = Instant::now();
             let (owned, proxies) = pod.population();
             proxies_peak = proxies_peak.max(proxies);
@@ -389,6 +395,7 @@ pub fn run_node(
                 cluster_stats: pod.cluster().stats(),
                 transport_stats: pod.cluster().transport_stats().into(),
                 rss_kib: rss_kib(),
+                ops_unanswered: pod.cluster().ops_unanswered() as u64,
             };
             if !args.quiet {
                 tracing::info!(target: "seam::pod", "{progress}");
@@ -456,6 +463,7 @@ pub fn run_node(
         recorded_entity_ticks,
         record_time: args.record.is_some().then_some(record_time),
         rss_kib: rss_kib(),
+        ops_unanswered: pod.cluster().ops_unanswered() as u64,
     };
     tracing::info!(
         target: "seam::pod",
@@ -491,4 +499,14 @@ fn pod_name(part: &Part) -> &str {
         Part::Cluster(name) => name,
         Part::Reference => "reference",
     }
+}
+
+/// The routed-op counters whose change makes a pod report progress at once.
+fn op_counts(s: &seam_proxy::ClusterStats) -> [u64; 4] {
+    [
+        s.ops_routed,
+        s.ops_applied + s.ops_dropped(),
+        s.ops_acked,
+        s.ops_forwarded,
+    ]
 }

@@ -42,6 +42,9 @@ pub struct NodeProgress {
     pub transport_stats: TransportCounts,
     /// Resident memory of the pod's process, KiB.
     pub rss_kib: u64,
+    /// Routed ops sent and not answered yet (`Cluster::ops_unanswered`).
+    #[serde(default)]
+    pub ops_unanswered: u64,
 }
 
 impl fmt::Display for NodeProgress {
@@ -180,4 +183,7 @@ pub struct NodeReport {
     pub record_time: Option<LatencyRecorder>,
     /// Resident memory at the end, KiB.
     pub rss_kib: u64,
+    /// Routed ops sent and not answered yet (`Cluster::ops_unanswered`).
+    #[serde(default)]
+    pub ops_unanswered: u64,
 }

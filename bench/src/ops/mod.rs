@@ -23,7 +23,7 @@ use std::process::{Command, Stdio};
 use std::time::Instant;
 
 use seam_proxy::monotonic_ns;
-use seam_sim::wire::{self, ClusterId, EntityId, PhysicsEventsFrame, PhysicsOp, RoutedOp};
+use seam_sim::wire::{self, ClusterId, EntityId, OpAck, PhysicsEventsFrame, PhysicsOp, RoutedOp};
 use seam_transport::redact_url;
 use serde::{Deserialize, Serialize};
 
@@ -33,6 +33,10 @@ pub use owner::run_owner;
 
 /// The entity every op targets (the owner spawns it).
 pub const TARGET: EntityId = EntityId(uuid_from(1));
+
+/// A pod's first op number: microseconds of the wall clock at its start (late 2026), so the
+/// numbers take as many bytes as a pod's.
+const FIRST_SEQ: u64 = 1_796_000_000_000_000;
 
 const fn uuid_from(n: u128) -> uuid::Uuid {
     uuid::Uuid::from_u128(n)
@@ -44,6 +48,8 @@ pub struct OpsPlan {
     pub transports: Vec<String>,
     /// Ops per frame.
     pub batches: Vec<usize>,
+    /// Without and with answers in each frame (one per op of the batch).
+    pub acks: Vec<bool>,
     /// Timed frames per row.
     pub rounds: u64,
     /// Untimed frames before them.
@@ -76,6 +82,8 @@ pub struct OpsRow {
     pub wait: &'static str,
     /// Ops per frame.
     pub batch: usize,
+    /// Answers each frame carried.
+    pub acks: usize,
     /// Timed frames.
     pub rounds: u64,
     /// p50 of the whole (issued → applied), ns.
@@ -96,12 +104,15 @@ pub fn run(plan: &OpsPlan, mut progress: impl FnMut(&str)) -> Result<Vec<OpsRow>
     for transport in &plan.transports {
         let wait = plan.wait.resolve(transport);
         for &batch in &plan.batches {
-            progress(&format!(
-                "{}, batch {batch}, {}",
-                redact_url(transport),
-                wait.name()
-            ));
-            rows.push(measure(transport, batch, wait, plan, rows.len())?);
+            for &with_acks in &plan.acks {
+                let acks = if with_acks { batch } else { 0 };
+                progress(&format!(
+                    "{}, batch {batch}, {acks} acks, {}",
+                    redact_url(transport),
+                    wait.name()
+                ));
+                rows.push(measure(transport, (batch, acks), wait, plan, rows.len())?);
+            }
         }
     }
     Ok(rows)
@@ -109,7 +120,7 @@ pub fn run(plan: &OpsPlan, mut progress: impl FnMut(&str)) -> Result<Vec<OpsRow>
 
 fn measure(
     url: &str,
-    batch: usize,
+    (batch, acks): (usize, usize),
     wait: WaitMode,
     plan: &OpsPlan,
     row: usize,
@@ -147,6 +158,14 @@ fn measure(
         tick: 0,
         published_ns: 0,
         ops: Vec::with_capacity(batch),
+        // Answers to as many ops of the other side, numbered as a pod numbers its ops.
+        acks: (0..acks as u64)
+            .map(|i| OpAck {
+                seq: FIRST_SEQ + i,
+                issuer: None,
+                done: true,
+            })
+            .collect(),
         contacts: Vec::new(),
         impulses: Vec::new(),
         leaving: false,
@@ -159,15 +178,17 @@ fn measure(
         // Frames tagged 1 are timed; warm-up frames are tagged 0.
         frame.tick = u64::from(round >= plan.warmup);
         frame.ops.clear();
-        for _ in 0..batch {
+        for i in 0..batch as u64 {
             frame.ops.push(RoutedOp {
                 op: PhysicsOp::Impulse {
                     target: TARGET,
                     impulse: [1e-3, 0.0, 0.0],
                 },
+                seq: FIRST_SEQ + round * batch as u64 + i,
+                issuer: None,
                 issued_ns: monotonic_ns(),
                 issued_tick: round,
-                forwarded: false,
+                age_ticks: 0,
             });
         }
         // Sized for the largest stamp (varints grow with the value); stamped at the send.
@@ -203,6 +224,7 @@ fn measure(
         transport: transport.backend().name().to_owned(),
         wait: wait.name(),
         batch,
+        acks,
         rounds: plan.rounds,
         p50_ns: stages.whole.p50_ns,
         p99_ns: stages.whole.p99_ns,
@@ -215,10 +237,11 @@ fn measure(
 /// The table `seam ops` prints.
 pub fn table(rows: &[OpsRow]) -> String {
     let mut out = format!(
-        "{:<9} {:<6} {:>5} | {:>9} {:>9} {:>9} | {:>9} | {:>9} {:>9} | {:>9} | {:>10}\n",
+        "{:<9} {:<6} {:>5} {:>5} | {:>9} {:>9} {:>9} | {:>9} | {:>9} {:>9} | {:>9} | {:>10}\n",
         "transport",
         "wait",
         "batch",
+        "acks",
         "whole p50",
         "p99",
         "p99.9",
@@ -231,10 +254,11 @@ pub fn table(rows: &[OpsRow]) -> String {
     for r in rows {
         let s = &r.stages;
         out += &format!(
-            "{:<9} {:<6} {:>5} | {:>9} {:>9} {:>9} | {:>9} | {:>9} {:>9} | {:>9} | {:>10.0}\n",
+            "{:<9} {:<6} {:>5} {:>5} | {:>9} {:>9} {:>9} | {:>9} | {:>9} {:>9} | {:>9} | {:>10.0}\n",
             r.transport,
             r.wait,
             r.batch,
+            r.acks,
             micros(r.p50_ns),
             micros(r.p99_ns),
             micros(r.p999_ns),
@@ -249,23 +273,35 @@ pub fn table(rows: &[OpsRow]) -> String {
     out + &ratios(rows)
 }
 
-/// The redis / shm ratio of the transport stage's p50 per batch, one line each.
+/// The redis / shm ratio of the transport stage's p50 per batch (frames without answers), and
+/// per transport and batch the ratio with answers to without, one line each.
 fn ratios(rows: &[OpsRow]) -> String {
     let mut out = String::new();
     let mut batches: Vec<usize> = rows.iter().map(|r| r.batch).collect();
     batches.sort_unstable();
     batches.dedup();
-    for batch in batches {
-        let p50 = |name: &str| {
-            rows.iter()
-                .find(|r| r.transport == name && r.batch == batch)
-                .map(|r| r.stages.transport.p50_ns as f64)
-        };
-        if let (Some(redis), Some(shm)) = (p50("redis"), p50("shm")) {
+    let p50 = |name: &str, batch: usize, acked: bool| {
+        rows.iter()
+            .find(|r| r.transport == name && r.batch == batch && (r.acks > 0) == acked)
+            .map(|r| r.stages.transport.p50_ns as f64)
+    };
+    for &batch in &batches {
+        let acked = rows.iter().all(|r| r.acks > 0);
+        if let (Some(redis), Some(shm)) = (p50("redis", batch, acked), p50("shm", batch, acked)) {
             out += &format!(
                 "batch {batch}: transport stage p50 redis / shm = {:.1}\n",
                 redis / shm
             );
+        }
+    }
+    for name in ["shm", "local", "redis"] {
+        for &batch in &batches {
+            if let (Some(with), Some(without)) = (p50(name, batch, true), p50(name, batch, false)) {
+                out += &format!(
+                    "{name} batch {batch}: transport stage p50 with acks / without = {:.2}\n",
+                    with / without
+                );
+            }
         }
     }
     out
@@ -278,6 +314,7 @@ pub fn markdown(rows: &[OpsRow]) -> String {
         ("transport", Left),
         ("wait", Left),
         ("batch", Right),
+        ("acks", Right),
         ("whole p50", Right),
         ("p99", Right),
         ("p99.9", Right),
@@ -293,6 +330,7 @@ pub fn markdown(rows: &[OpsRow]) -> String {
             r.transport.clone(),
             r.wait.to_owned(),
             r.batch.to_string(),
+            r.acks.to_string(),
             micros(r.p50_ns),
             micros(r.p99_ns),
             micros(r.p999_ns),

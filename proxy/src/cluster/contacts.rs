@@ -125,14 +125,18 @@ impl Cluster {
                 self.stats.seam_impulses_unjudged += 1;
                 continue;
             }
+            let seq = self.next_op_seq;
+            self.next_op_seq += 1;
             self.outgoing_ops.entry(owner).or_default().push(RoutedOp {
                 op: PhysicsOp::Impulse {
                     target: other,
                     impulse: impulse.map(|c| -c),
                 },
+                seq,
+                issuer: None,
                 issued_ns: monotonic_ns(),
                 issued_tick: tick,
-                forwarded: false,
+                age_ticks: 0,
             });
             self.stats.seam_impulses_routed += 1;
         }

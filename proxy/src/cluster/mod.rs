@@ -4,7 +4,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use seam_sim::wire::{
-    self, ClusterId, ContactReport, EntityId, EntityState, IdMap, PhysicsEventsFrame,
+    self, ClusterId, ContactReport, EntityId, EntityState, IdMap, OpAck, PhysicsEventsFrame,
     ReplicationEncoder, ReplicationFrame, RoutedOp, SeamImpulseReport,
 };
 use seam_sim::{BodyRole, ClusterSim, ContactEvent, PhysicsHandle, SimConfig, TickContext};
@@ -15,6 +15,7 @@ use crate::channels;
 use crate::clock::{OpTiming, monotonic_ns};
 use crate::config::{ClusterConfig, CustomProxy, ProxyMode, Region};
 use crate::contact_merge::ContactMerge;
+use crate::delivery::{Outstanding, Settled};
 use crate::error::ClusterError;
 use crate::inbox::{HeldReplication, Inbox, TickFrames};
 use crate::interest::Interest;
@@ -68,6 +69,14 @@ pub struct Cluster {
     inbox: Inbox,
     /// Routed writes by destination, for this tick's publish.
     outgoing_ops: IdMap<ClusterId, Vec<RoutedOp>>,
+    /// Answers to the ops received, by their sender, for this tick's publish.
+    outgoing_acks: IdMap<ClusterId, Vec<OpAck>>,
+    /// The number the next op issued here gets (see `crate::delivery`).
+    next_op_seq: u64,
+    /// Ops sent and not answered yet (see `crate::delivery`).
+    outstanding: Outstanding,
+    /// Op numbers settled here, per issuer (see `crate::delivery`).
+    settled: Settled,
     /// Stage times of the routed ops applied here, until the caller takes them.
     op_timings: Vec<OpTiming>,
     /// Hand-offs taken and given here, until the caller takes them.
@@ -188,6 +197,10 @@ impl Cluster {
             transport,
             inbox: Inbox::default(),
             outgoing_ops: IdMap::default(),
+            outgoing_acks: IdMap::default(),
+            next_op_seq: first_op_seq(),
+            outstanding: Outstanding::default(),
+            settled: Settled::default(),
             op_timings: Vec::new(),
             handoff_log: Vec::new(),
             outgoing_contacts: IdMap::default(),
@@ -246,6 +259,13 @@ impl Cluster {
     /// [`ClusterStats::op_timings_dropped`]).
     pub fn take_op_timings(&mut self) -> Vec<OpTiming> {
         std::mem::take(&mut self.op_timings)
+    }
+
+    /// Routed writes this cluster has sent (issued here, or taken on to forward) and not yet
+    /// had answered; they are sent again until answered or too old (see
+    /// `ClusterConfig::op_retry_ticks`).
+    pub fn ops_unanswered(&self) -> usize {
+        self.outstanding.len()
     }
 
     /// The hand-offs this cluster took and gave since the last call, in order (at most
@@ -312,6 +332,7 @@ impl Cluster {
                 tick: self.sim.tick() + 1,
                 published_ns: monotonic_ns(),
                 ops: Vec::new(),
+                acks: Vec::new(),
                 contacts: Vec::new(),
                 impulses: Vec::new(),
                 leaving: true,
@@ -570,6 +591,7 @@ impl Cluster {
         let mut outbox = Outbox {
             neighbours: &self.config.neighbours,
             ops: &mut self.outgoing_ops,
+            next_seq: &mut self.next_op_seq,
             tick: self.sim.tick(),
         };
         self.sim.run_user(&mut outbox, user);
@@ -580,9 +602,12 @@ impl Cluster {
         }
 
         // Contacts across the seam settled (see `crate::settle`), then routed writes received,
-        // all applied just before the step.
+        // all applied just before the step; answers to this cluster's ops taken in, and those
+        // due sent again (or applied, if their entity is this cluster's now).
         self.settle_seam_impulses(&frames.events, tick);
+        self.take_acks(&frames.events, tick);
         self.apply_routed_ops(&frames.events, tick);
+        self.resend_due(tick);
 
         if self.config.coupling && self.config.proxy_mode != ProxyMode::Custom {
             let changes = self.sim.couple_proxies(self.proxy_role());
@@ -597,6 +622,15 @@ impl Cluster {
         self.stats.ticks += 1;
         Ok(())
     }
+}
+
+/// The number a cluster's first op gets: microseconds of the wall clock at its start, so a pod
+/// restarted under the same id numbers its ops past those of its earlier life (owners would
+/// otherwise take its new ops for repeats of old ones).
+fn first_op_seq() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(1, |d| d.as_micros() as u64)
 }
 
 /// Whether every component of `v` is within `limit` in magnitude (NaN is not).

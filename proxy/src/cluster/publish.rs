@@ -191,26 +191,35 @@ impl Cluster {
         }
         for i in 0..self.config.neighbours.len() {
             let neighbour = self.config.neighbours[i];
-            let mut ops = self
+            let ops = self
                 .outgoing_ops
                 .get_mut(&neighbour)
                 .map(std::mem::take)
                 .unwrap_or_default();
+            let mut ops = self.keep_unanswered(neighbour, ops, tick);
             if self
                 .neighbour_status(neighbour)
                 .is_some_and(NeighbourStatus::is_gone)
             {
-                // Taken for dead: its entities are adopted or gone, so writes queued for it
-                // (before it was) have no owner there. The empty frame still tells it, should it
-                // be alive after all, that this cluster is.
-                self.stats.ops_dropped_owner_dead += ops.len() as u64;
-                ops.clear();
+                // Taken for dead: its entities are being adopted, so writes queued for it
+                // (before it was) are kept to go, next tick on, to whoever owns them then. The
+                // empty frame still tells it, should it be alive after all, that this cluster
+                // is.
+                for op in ops.drain(..) {
+                    self.outstanding
+                        .due_at((op.issuer.unwrap_or(me), op.seq), tick + 1);
+                }
             }
             let frame = PhysicsEventsFrame {
                 from: me,
                 tick,
                 published_ns: monotonic_ns(),
                 ops,
+                acks: self
+                    .outgoing_acks
+                    .get_mut(&neighbour)
+                    .map(std::mem::take)
+                    .unwrap_or_default(),
                 contacts: self
                     .outgoing_contacts
                     .get_mut(&neighbour)
@@ -223,7 +232,6 @@ impl Cluster {
                     .unwrap_or_default(),
                 leaving: self.leaving,
             };
-            self.stats.ops_routed += frame.ops.len() as u64;
             self.stats.events_bytes += publish_frame(
                 self.transport.as_mut(),
                 &channels::physics_events(neighbour),

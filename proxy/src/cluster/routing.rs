@@ -1,10 +1,13 @@
-//! Routed writes: game code's writes on remote-owned entities queued by owner, and the ops
-//! received for this cluster's entities applied (or forwarded once after a hand-off).
+//! Routed writes: game code's writes on remote-owned entities queued by owner, the ops received
+//! for this cluster's entities applied once (or forwarded once after a hand-off) and answered,
+//! and this cluster's unanswered ops sent again to whoever owns their target now (see
+//! `crate::delivery`).
 
-use seam_sim::wire::{ClusterId, IdMap, PhysicsEventsFrame, PhysicsOp, RoutedOp};
+use seam_sim::wire::{ClusterId, IdMap, OpAck, PhysicsEventsFrame, PhysicsOp, RoutedOp};
 use seam_sim::{SimError, WriteRouter};
 
 use crate::clock::{OpTiming, monotonic_ns};
+use crate::delivery::{OpKey, Unanswered, Verdict};
 
 use super::{Cluster, MAX_OP_TIMINGS, NeighbourStatus, within};
 
@@ -12,6 +15,7 @@ use super::{Cluster, MAX_OP_TIMINGS, NeighbourStatus, within};
 pub(super) struct Outbox<'a> {
     pub(super) neighbours: &'a [ClusterId],
     pub(super) ops: &'a mut IdMap<ClusterId, Vec<RoutedOp>>,
+    pub(super) next_seq: &'a mut u64,
     pub(super) tick: u64,
 }
 
@@ -23,76 +27,278 @@ impl WriteRouter for Outbox<'_> {
                 owner,
             });
         }
+        let seq = *self.next_seq;
+        *self.next_seq += 1;
         self.ops.entry(owner).or_default().push(RoutedOp {
             op,
+            seq,
+            issuer: None,
             issued_ns: monotonic_ns(),
             issued_tick: self.tick,
-            forwarded: false,
+            age_ticks: 0,
         });
         Ok(())
     }
 }
 
+/// Where a received op came from, for its stage times.
+struct Arrival {
+    published_ns: u64,
+    received_ns: u64,
+}
+
 impl Cluster {
-    /// Applies the ops received for this cluster's entities, just before the step; an op whose
-    /// target was handed over since the issuer routed it is sent on, once, to the owner this
-    /// cluster knows; absurd, invalid and misdirected ops are counted and dropped.
+    /// Whether `cluster` is a neighbour not taken for dead and not gone.
+    fn reachable(&self, cluster: ClusterId) -> bool {
+        self.config.neighbours.contains(&cluster)
+            && !self
+                .neighbour_status(cluster)
+                .is_some_and(NeighbourStatus::is_gone)
+    }
+
+    /// Takes in the answers to the ops this cluster sent: settled ones are forgotten, those
+    /// "not here" are sent again this tick to where the target is now.
+    pub(super) fn take_acks(&mut self, events: &[(PhysicsEventsFrame, u64)], tick: u64) {
+        let me = self.config.cluster_id;
+        for (frame, _) in events {
+            for ack in &frame.acks {
+                let key = (ack.issuer.unwrap_or(me), ack.seq);
+                if ack.done {
+                    if self.outstanding.take(key).is_some() {
+                        self.stats.ops_acked += 1;
+                    }
+                } else {
+                    self.outstanding.returned(key, tick);
+                }
+            }
+        }
+    }
+
+    /// Answers an op received from `to` in its next events frame.
+    fn answer(&mut self, to: ClusterId, routed: &RoutedOp, done: bool) {
+        self.outgoing_acks.entry(to).or_default().push(OpAck {
+            seq: routed.seq,
+            issuer: routed.issuer,
+            done,
+        });
+    }
+
+    /// Applies the ops received for this cluster's entities, just before the step, each name
+    /// once; an op whose target was handed over since the issuer routed it is taken on and
+    /// sent, once, to the owner this cluster knows; one it cannot place is answered "not
+    /// here"; absurd, stale, invalid and repeated ops are counted and dropped. Every op is
+    /// answered.
     pub(super) fn apply_routed_ops(&mut self, events: &[(PhysicsEventsFrame, u64)], tick: u64) {
         for (frame, received_ns) in events {
+            let arrival = Arrival {
+                published_ns: frame.published_ns,
+                received_ns: *received_ns,
+            };
             for routed in &frame.ops {
+                let key = (routed.issuer.unwrap_or(frame.from), routed.seq);
+                match self.settled.verdict(key) {
+                    Verdict::Repeat => {
+                        self.stats.ops_repeated += 1;
+                        self.answer(frame.from, routed, true);
+                        continue;
+                    }
+                    Verdict::TooOld => {
+                        self.stats.ops_dropped_window += 1;
+                        self.answer(frame.from, routed, true);
+                        continue;
+                    }
+                    Verdict::New => {}
+                }
                 if let Some(v) = routed.op.vector()
                     && v.iter().all(|c| c.is_finite())
                     && !within(v, self.config.max_magnitude)
                 {
+                    self.settle(key);
                     self.stats.ops_dropped_absurd += 1;
+                    self.answer(frame.from, routed, true);
                     continue;
                 }
-                match self.sim.info(routed.op.target()) {
-                    // Handed over since the issuer routed it: sent on, once, to the owner this
-                    // cluster knows.
-                    Some(info)
-                        if info.owner != self.config.cluster_id
-                            && !routed.forwarded
-                            && self.config.neighbours.contains(&info.owner)
-                            && !self
-                                .neighbour_status(info.owner)
-                                .is_some_and(NeighbourStatus::is_gone) =>
-                    {
-                        self.outgoing_ops
-                            .entry(info.owner)
-                            .or_default()
-                            .push(RoutedOp {
-                                forwarded: true,
-                                ..*routed
-                            });
+                // Its age when applied: the ticks it spent in its senders' hands and the one it
+                // waits here.
+                if u64::from(routed.age_ticks) + 1 > self.config.max_op_age_ticks {
+                    self.settle(key);
+                    self.stats.ops_dropped_stale += 1;
+                    self.answer(frame.from, routed, true);
+                    continue;
+                }
+                let owner = self.sim.info(routed.op.target()).map(|info| info.owner);
+                match owner {
+                    Some(owner) if owner == self.config.cluster_id => {
+                        self.apply_here(key, routed, &arrival, tick);
+                        self.answer(frame.from, routed, true);
+                    }
+                    // Handed over since the issuer routed it: taken on and sent, once, to the
+                    // owner this cluster knows, which answers this cluster.
+                    Some(owner) if !routed.forwarded() && self.reachable(owner) => {
+                        self.settle(key);
+                        self.outgoing_ops.entry(owner).or_default().push(RoutedOp {
+                            issuer: Some(frame.from),
+                            age_ticks: routed.age_ticks.saturating_add(1),
+                            ..*routed
+                        });
                         self.stats.ops_forwarded += 1;
+                        self.answer(frame.from, routed, true);
                     }
-                    Some(info) if info.owner == self.config.cluster_id => {
-                        match self.sim.apply_op(&routed.op) {
-                            Ok(()) => {
-                                self.stats.ops_applied += 1;
-                                let timing = OpTiming {
-                                    from: frame.from,
-                                    target: routed.op.target(),
-                                    issued_ns: routed.issued_ns,
-                                    published_ns: frame.published_ns,
-                                    received_ns: *received_ns,
-                                    applied_ns: monotonic_ns(),
-                                    issued_tick: routed.issued_tick,
-                                    applied_tick: tick,
-                                };
-                                if self.op_timings.len() < MAX_OP_TIMINGS {
-                                    self.op_timings.push(timing);
-                                } else {
-                                    self.stats.op_timings_dropped += 1;
-                                }
-                            }
-                            Err(_) => self.stats.ops_dropped_invalid += 1,
-                        }
+                    _ => {
+                        self.stats.ops_not_here += 1;
+                        self.answer(frame.from, routed, false);
                     }
-                    _ => self.stats.ops_dropped_not_owner += 1,
                 }
             }
         }
+    }
+
+    /// Marks an op settled here.
+    fn settle(&mut self, key: OpKey) {
+        let forgotten = self.settled.forgotten;
+        self.settled.settle(key);
+        self.stats.op_windows_forgotten += self.settled.forgotten - forgotten;
+    }
+
+    /// Applies an op on an entity this cluster owns, and keeps its stage times.
+    fn apply_here(&mut self, key: OpKey, routed: &RoutedOp, arrival: &Arrival, tick: u64) {
+        self.settle(key);
+        match self.sim.apply_op(&routed.op) {
+            Ok(()) => {
+                self.stats.ops_applied += 1;
+                let timing = OpTiming {
+                    from: key.0,
+                    target: routed.op.target(),
+                    issued_ns: routed.issued_ns,
+                    published_ns: arrival.published_ns,
+                    received_ns: arrival.received_ns,
+                    applied_ns: monotonic_ns(),
+                    issued_tick: routed.issued_tick,
+                    applied_tick: tick,
+                };
+                if self.op_timings.len() < MAX_OP_TIMINGS {
+                    self.op_timings.push(timing);
+                } else {
+                    self.stats.op_timings_dropped += 1;
+                }
+            }
+            Err(_) => self.stats.ops_dropped_invalid += 1,
+        }
+    }
+
+    /// Sends again the unanswered ops that are due, each to the cluster this one now knows to
+    /// own its target (or applies it, if that is this cluster); gives up on those too old to
+    /// be applied anywhere, and on those whose entity neither this cluster nor the last
+    /// receiver knows.
+    pub(super) fn resend_due(&mut self, tick: u64) {
+        let me = self.config.cluster_id;
+        for (key, mut pending) in self.outstanding.take_due(tick) {
+            let age = pending.age(tick);
+            if pending.expired {
+                // No late answer either: nobody applied it.
+                self.stats.ops_expired += 1;
+                continue;
+            }
+            if age >= self.config.max_op_age_ticks {
+                // Any owner would drop it as stale now; one that stalled may still apply a
+                // copy it holds (its world is as late as the op), so wait for an answer as long
+                // as it may stay silent and still be alive.
+                pending.expired = true;
+                pending.due_tick = tick + self.config.neighbour_timeout_ticks.max(1) * 2;
+                if !self.outstanding.keep(key, pending) {
+                    self.stats.ops_dropped_queue_full += 1;
+                }
+                continue;
+            }
+            let target = pending.op.op.target();
+            let owner = self.sim.info(target).map(|info| info.owner);
+            let to = match owner {
+                Some(owner) if owner == me => {
+                    // Adopted or handed here since: applied here, once.
+                    if self.settled.verdict(key) == Verdict::New {
+                        let arrival = Arrival {
+                            published_ns: monotonic_ns(),
+                            received_ns: monotonic_ns(),
+                        };
+                        let routed = pending.op;
+                        self.apply_here(key, &routed, &arrival, tick);
+                    } else {
+                        self.stats.ops_repeated += 1;
+                    }
+                    continue;
+                }
+                Some(owner) if self.reachable(owner) => Some(owner),
+                // Its owner is taken for dead: its entities are being adopted; wait for the
+                // adopter's frames to name it.
+                Some(owner) if self.config.neighbours.contains(&owner) => None,
+                // Scenery, or an owner this cluster cannot send to.
+                Some(_) => {
+                    self.stats.ops_dropped_gone += 1;
+                    continue;
+                }
+                // Not in this world: the last receiver may still place it, unless it said it
+                // could not.
+                None if pending.returned || !self.reachable(pending.to) => {
+                    if pending.returned {
+                        self.stats.ops_dropped_gone += 1;
+                        continue;
+                    }
+                    None
+                }
+                None => Some(pending.to),
+            };
+            pending.returned = false;
+            pending.due_tick = tick + self.config.op_retry_ticks.max(1);
+            if let Some(to) = to {
+                pending.to = to;
+                self.outgoing_ops.entry(to).or_default().push(RoutedOp {
+                    issuer: (key.0 != me).then_some(key.0),
+                    age_ticks: u32::try_from(age).unwrap_or(u32::MAX),
+                    ..pending.op
+                });
+                self.stats.ops_resent += 1;
+            }
+            if !self.outstanding.keep(key, pending) {
+                self.stats.ops_dropped_queue_full += 1;
+            }
+        }
+    }
+
+    /// Keeps the ops of this tick's frame to `to` until they are answered: those sent for the
+    /// first time (issued here or taken on to forward) are added; resends are kept already.
+    /// Returns the ops to send: those the queue for `to` had no room for are dropped.
+    pub(super) fn keep_unanswered(
+        &mut self,
+        to: ClusterId,
+        ops: Vec<RoutedOp>,
+        tick: u64,
+    ) -> Vec<RoutedOp> {
+        let me = self.config.cluster_id;
+        let retry = self.config.op_retry_ticks.max(1);
+        let mut sent = Vec::with_capacity(ops.len());
+        for op in ops {
+            let key = (op.issuer.unwrap_or(me), op.seq);
+            if self.outstanding.contains(key) {
+                sent.push(op);
+                continue;
+            }
+            let pending = Unanswered {
+                op,
+                to,
+                born_tick: tick as i64 - i64::from(op.age_ticks),
+                due_tick: tick + retry,
+                returned: false,
+                expired: false,
+            };
+            if key.0 == me {
+                self.stats.ops_routed += 1;
+            }
+            if self.outstanding.keep(key, pending) {
+                sent.push(op);
+            } else {
+                self.stats.ops_dropped_queue_full += 1;
+            }
+        }
+        sent
     }
 }

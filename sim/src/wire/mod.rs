@@ -21,7 +21,7 @@ use serde::de::{DeserializeOwned, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
 
 /// The format version every frame starts with.
-pub const WIRE_VERSION: u8 = 5;
+pub const WIRE_VERSION: u8 = 6;
 
 /// A collision shape, as small as a proxy needs.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -221,14 +221,42 @@ impl PhysicsOp {
 pub struct RoutedOp {
     /// The write.
     pub op: PhysicsOp,
+    /// The issuer's number for it: with the issuer, what names the op everywhere it goes (an
+    /// owner applies each name once, and acknowledges it by that name; see [`OpAck`]).
+    pub seq: u64,
+    /// The cluster whose game code issued it, when that is not the frame's sender: an op sent
+    /// on by a cluster that no longer owned the target, to the owner it knew. `None`: the
+    /// sender issued it. An op is forwarded at most once; one that misses again goes back.
+    pub issuer: Option<ClusterId>,
     /// When user code made the write: nanoseconds of the host's monotonic clock (shared by
     /// every process of one host; meaningless across hosts).
     pub issued_ns: u64,
     /// The issuing cluster's tick when it made the write.
     pub issued_tick: u64,
-    /// Sent on by a cluster that no longer owned the target to the owner it knew: an op is
-    /// forwarded at most once, so one forwarded again is dropped instead.
-    pub forwarded: bool,
+    /// Ticks the op has spent in clusters' hands before this send, each counted on the
+    /// clock of the cluster holding it (the issuer from the write to this send; a forwarder
+    /// from receipt to forwarding): its age without assuming clusters share a tick count.
+    pub age_ticks: u32,
+}
+
+impl RoutedOp {
+    /// Whether a cluster other than the frame's sender issued it (it was forwarded).
+    pub fn forwarded(&self) -> bool {
+        self.issuer.is_some()
+    }
+}
+
+/// A receiver's answer to a routed op, in its next events frame to the op's sender.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct OpAck {
+    /// The op's number ([`RoutedOp::seq`]).
+    pub seq: u64,
+    /// Its issuer when that is not the frame's destination (the destination forwarded it).
+    pub issuer: Option<ClusterId>,
+    /// `true`: settled here — applied, or dropped for good (too old, invalid, a repeat of one
+    /// settled before), or taken on to forward; the sender forgets it. `false`: not owned here
+    /// and not forwarded; the sender sends it where it now knows the target to be.
+    pub done: bool,
 }
 
 /// A contact that started or stopped between two entities.
@@ -289,6 +317,9 @@ pub struct PhysicsEventsFrame {
     /// Writes on entities the destination owns.
     #[serde(deserialize_with = "grow_as_decoded")]
     pub ops: Vec<RoutedOp>,
+    /// Answers to the ops the destination sent the sender.
+    #[serde(deserialize_with = "grow_as_decoded")]
+    pub acks: Vec<OpAck>,
     /// Contacts between the sender's bodies and its proxies of the destination's entities.
     #[serde(deserialize_with = "grow_as_decoded")]
     pub contacts: Vec<ContactReport>,

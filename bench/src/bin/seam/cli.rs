@@ -164,9 +164,10 @@ pub(crate) enum Command {
     /// lives long enough to judge its memory); the Redis server killed for 1 s and restarted
     /// (Redis only); a pod stopped with SIGSTOP for 1 s. Between faults, garbage and forged frames go into every
     /// channel four times a second. Prints faults injected and survived, injected frames
-    /// against the pods' refusal counters, entities lost or owned twice, ops and frames dropped
-    /// by reason, adoptions, outages, panics, and each pod's memory after warm-up. Exits with
-    /// 1 if a target does not hold.
+    /// against the pods' refusal counters, entities lost or owned twice, routed ops applied,
+    /// resent, dropped by reason and lost, frames dropped by reason, adoptions, outages,
+    /// panics, and each pod's memory after warm-up. Exits with 1 if a target does not hold
+    /// (RELIABILITY.md lists them; a routed op lost is one).
     Chaos {
         /// The scene file (TOML), e.g. bench/scenes/crossfire.toml.
         scene: std::path::PathBuf,
@@ -272,6 +273,11 @@ pub(crate) enum Command {
         /// Ops per frame, comma separated.
         #[arg(long, default_value = "1,16,256", value_delimiter = ',')]
         batch: Vec<usize>,
+        /// Answers carried in each frame, comma separated: `off` (none) and `on` (one per op of
+        /// the batch, as a pod's frame carries its answers to the ops the other side sent it).
+        /// Both, measured in turn, give the cost of acknowledgements as a ratio in one run.
+        #[arg(long, default_value = "off,on", value_delimiter = ',')]
+        acks: Vec<AckMode>,
         /// Timed frames per row.
         #[arg(long, default_value_t = 10_000)]
         rounds: u64,
@@ -505,4 +511,13 @@ pub(crate) struct HostsArgs {
     /// Simulate hosts by iceoryx2 prefix alone, even as root (no network namespaces).
     #[arg(long)]
     pub(crate) no_namespaces: bool,
+}
+
+/// Whether `seam ops` frames carry answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum AckMode {
+    /// None.
+    Off,
+    /// One per op of the batch.
+    On,
 }

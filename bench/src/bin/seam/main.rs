@@ -170,19 +170,23 @@ fn main() -> ExitCode {
         Command::Ops {
             transport,
             batch,
+            acks,
             rounds,
             warmup,
             wait,
             output,
         } => {
+            let mut acks: Vec<bool> = acks.iter().map(|&a| a == cli::AckMode::On).collect();
+            acks.dedup();
             let plan = OpsPlan {
                 transports: transport.iter().map(|t| expand_transport(t)).collect(),
                 batches: batch,
+                acks,
                 rounds,
                 warmup,
                 wait,
             };
-            let total = plan.transports.len() * plan.batches.len();
+            let total = plan.transports.len() * plan.batches.len() * plan.acks.len();
             eprintln!(
                 "seam ops: {rounds} timed frames per row after {warmup} warm-up, one frame in flight"
             );

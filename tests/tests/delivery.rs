@@ -1,0 +1,296 @@
+//! No routed write lost, none applied twice: an op in a lost frame is sent again and applied
+//! once; repeats and replays of an op are answered and never applied again; an op too old is
+//! dropped and counted; an op whose owner died follows its entity to the adopter.
+
+use std::time::Duration;
+
+use seam_proxy::{AuthorityMode, Cluster, ClusterConfig, Region, WorldCluster, physics_events};
+use seam_sim::BodyRole;
+use seam_sim::wire::{
+    self, ClusterId, EntityId, EntityState, OpAck, PhysicsEventsFrame, PhysicsOp, RoutedOp,
+};
+use seam_tests::{HandClock, TestContext, ball_at};
+
+seam_tests::backend_tests!(
+    [shm: Shm, local: Local, redis: Redis],
+    [repeats_and_replays_of_an_op_are_applied_once]
+);
+
+/// The mass of `ball_at`'s ball (0.5 m radius, 100 kg/m³): an impulse of this many N·s gives
+/// it 1 m/s.
+fn ball_mass(_ball: &EntityState) -> f32 {
+    100.0 * 4.0 / 3.0 * std::f32::consts::PI * 0.125
+}
+
+/// Two neighbouring clusters on `url`, zero gravity, scripted authority.
+fn pair(url: &str, tune: impl Fn(&mut ClusterConfig)) -> (Vec<Cluster>, ClusterId, ClusterId) {
+    let ids = [ClusterId::random(), ClusterId::random()];
+    let clusters = (0..2)
+        .map(|index| {
+            let mut config = ClusterConfig::new(ids[index], vec![ids[1 - index]], url);
+            config.gravity = [0.0; 3];
+            config.authority = AuthorityMode::Scripted;
+            tune(&mut config);
+            Cluster::new(config).expect("cluster")
+        })
+        .collect();
+    (clusters, ids[0], ids[1])
+}
+
+fn linvel_x(cluster: &Cluster, entity: EntityId) -> f32 {
+    cluster.sim().state(entity).expect("state").linvel[0]
+}
+
+/// A writes to B's ball, then runs on while B stalls: B's buffer of 4 keeps only A's newest
+/// frames, so the frame with the write is lost. A sends it again after `op_retry_ticks`; B
+/// applies it once and answers, and A forgets it.
+/// (On shared memory, whose receive buffer has a size to overflow.)
+#[test]
+fn an_op_in_a_lost_frame_is_sent_again_and_applied_once() {
+    let ctx = TestContext::new(seam_transport::Backend::Shm).expect("shm is always there");
+    let (mut clusters, _, b) = pair(&ctx.url_with("buffer=4"), |_| {});
+    let ball = ball_at(1.0, b);
+    let mass = ball_mass(&ball);
+    clusters[1]
+        .spawn_owned(&ball, BodyRole::Dynamic)
+        .expect("spawn");
+    for _ in 0..3 {
+        for cluster in &mut clusters {
+            cluster.tick(|_, _| {}).expect("tick");
+        }
+    }
+    assert_eq!(
+        clusters[0].sim().info(ball.id).map(|i| i.owner),
+        Some(b),
+        "A has a proxy of B's ball"
+    );
+    clusters[0]
+        .tick(|_, physics| {
+            physics
+                .apply_impulse(ball.id, [mass, 0.0, 0.0])
+                .expect("routed to B");
+        })
+        .expect("A writes");
+    let retry = clusters[0].config().op_retry_ticks;
+    for _ in 0..retry + 1 {
+        clusters[0].tick(|_, _| {}).expect("A ticks");
+    }
+    for _ in 0..5 {
+        for cluster in &mut clusters {
+            cluster.tick(|_, _| {}).expect("tick");
+        }
+    }
+    let (sa, sb) = (clusters[0].stats(), clusters[1].stats());
+    assert!(
+        clusters[1].transport_stats().overflow_drops > 0,
+        "B lost frames: {:?}",
+        clusters[1].transport_stats()
+    );
+    assert_eq!(sa.ops_routed, 1, "{sa:?}");
+    assert!(sa.ops_resent >= 1, "A sent it again: {sa:?}");
+    assert_eq!(sb.ops_applied, 1, "B applied it once: {sb:?}");
+    assert_eq!(
+        (sa.ops_acked, clusters[0].ops_unanswered()),
+        (1, 0),
+        "{sa:?}"
+    );
+    let v = linvel_x(&clusters[1], ball.id);
+    assert!((v - 1.0).abs() < 1e-3, "Δv = J/m, once: {v}");
+}
+
+/// The numbers the test gives its ops: as a pod's, microseconds of the wall clock.
+const SEQ: u64 = 1_796_000_000_000_000;
+
+/// An events frame from `from`, tagged `tick`, with `ops`.
+fn frame(from: ClusterId, tick: u64, ops: Vec<RoutedOp>) -> Vec<u8> {
+    wire::encode(&PhysicsEventsFrame {
+        from,
+        tick,
+        published_ns: 0,
+        ops,
+        acks: Vec::new(),
+        contacts: Vec::new(),
+        impulses: Vec::new(),
+        leaving: false,
+    })
+}
+
+fn op(op: PhysicsOp, seq: u64, age_ticks: u32) -> RoutedOp {
+    RoutedOp {
+        op,
+        seq,
+        issuer: None,
+        issued_ns: 0,
+        issued_tick: 0,
+        age_ticks,
+    }
+}
+
+/// The test plays B's neighbour A by hand, on a real transport: it sends B an impulse, the
+/// same frame again (a replay), the same op in a later frame (a resend), an op too old, one
+/// numbered below B's window of A's numbers, and one for an entity B does not know. B applies
+/// the impulse once, counts each of the others by what it is, and answers every op on A's
+/// channel — "done" but for the unknown entity, "not here".
+fn repeats_and_replays_of_an_op_are_applied_once(ctx: &TestContext) {
+    let (a, b) = (ClusterId::random(), ClusterId::random());
+    let mut config = ClusterConfig::new(b, vec![a], &ctx.url());
+    config.gravity = [0.0; 3];
+    config.authority = AuthorityMode::Scripted;
+    let mut cluster = Cluster::new(config).expect("cluster B");
+    let ball = ball_at(1.0, b);
+    let mass = ball_mass(&ball);
+    cluster
+        .spawn_owned(&ball, BodyRole::Dynamic)
+        .expect("spawn");
+    let mut injector = ctx.open();
+    injector.subscribe(&physics_events(a)).expect("subscribe");
+    let to_b = physics_events(b);
+    let push = PhysicsOp::Impulse {
+        target: ball.id,
+        impulse: [mass, 0.0, 0.0],
+    };
+    let max_age = cluster.config().max_op_age_ticks as u32;
+    let unknown = PhysicsOp::Wake {
+        target: EntityId::random(),
+    };
+    let frames = [
+        frame(a, 1, vec![op(push, SEQ, 0)]),
+        frame(a, 1, vec![op(push, SEQ, 0)]),
+        frame(a, 2, vec![op(push, SEQ, 3)]),
+        frame(a, 3, vec![op(push, SEQ + 1, max_age)]),
+        frame(a, 4, vec![op(push, SEQ + 100_000, 0)]),
+        frame(a, 5, vec![op(push, SEQ + 100_000 - 20_000, 0)]),
+        frame(a, 6, vec![op(unknown, SEQ + 100_001, 0)]),
+    ];
+    let mut answers: Vec<OpAck> = Vec::new();
+    for bytes in &frames {
+        injector.publish(&to_b, bytes).expect("publish");
+        // One tick per frame, after it has arrived, so each is judged alone.
+        std::thread::sleep(Duration::from_millis(20));
+        cluster.wait(Duration::from_millis(200)).expect("wait");
+        cluster.tick(|_, _| {}).expect("tick");
+        while let Some(message) = seam_tests::receive(injector.as_mut(), Duration::from_millis(200))
+        {
+            let reply: PhysicsEventsFrame = wire::decode(&message.payload).expect("B's frame");
+            answers.extend(reply.acks);
+            if reply.tick == cluster.sim().tick() - 1 {
+                break;
+            }
+        }
+    }
+    let s = cluster.stats();
+    assert_eq!(s.frames_replayed, 1, "the same frame twice: {s:?}");
+    assert_eq!(
+        s.ops_applied, 2,
+        "the push, and the new number far ahead: {s:?}"
+    );
+    assert_eq!(s.ops_repeated, 1, "the push in a later frame: {s:?}");
+    assert_eq!(s.ops_dropped_stale, 1, "{s:?}");
+    assert_eq!(s.ops_dropped_window, 1, "{s:?}");
+    assert_eq!(s.ops_not_here, 1, "{s:?}");
+    let v = linvel_x(&cluster, ball.id);
+    assert!(
+        (v - 2.0).abs() < 1e-3,
+        "two pushes of 1 m/s applied, no more: {v}"
+    );
+    let done = |seq: u64| answers.iter().filter(|a| a.seq == seq && a.done).count();
+    assert_eq!(
+        done(SEQ),
+        2,
+        "the push and its resend answered: {answers:?}"
+    );
+    for seq in [SEQ + 1, SEQ + 100_000, SEQ + 80_000] {
+        assert_eq!(done(seq), 1, "seq {seq} answered: {answers:?}");
+    }
+    assert!(
+        answers.iter().any(|a| a.seq == SEQ + 100_001 && !a.done),
+        "the unknown entity answered not here: {answers:?}"
+    );
+}
+
+/// West [-30, 0] and east [0, 30] with a world map; east owns a ball at x = 1. West writes to
+/// it, and east dies before reading the write. West takes east for dead after the timeout,
+/// adopts the ball, and applies its own unanswered write to it — once — if the write is still
+/// young enough (`max_op_age_ticks`), or drops it as too old, counted.
+fn dead_owner(max_op_age_ticks: u64) -> (Cluster, EntityState) {
+    let url = format!(
+        "local?prefix=seam_delivery_dead_{}_{max_op_age_ticks}_",
+        std::process::id()
+    );
+    let ids = [ClusterId::random(), ClusterId::random()];
+    let regions = [(-30.0, 0.0), (0.0, 30.0)].map(|(x0, x1)| Region {
+        min: [x0, -100.0, -100.0],
+        max: [x1, 100.0, 100.0],
+    });
+    let world: Vec<WorldCluster> = (0..2)
+        .map(|i| WorldCluster {
+            id: ids[i],
+            region: regions[i],
+            neighbours: vec![ids[1 - i]],
+        })
+        .collect();
+    let mut clusters: Vec<Cluster> = (0..2)
+        .map(|i| {
+            let mut config = ClusterConfig::new(ids[i], vec![ids[1 - i]], &url);
+            config.gravity = [0.0; 3];
+            config.region = regions[i];
+            config.spread = 40.0;
+            config.neighbour_timeout_ticks = 10;
+            config.max_op_age_ticks = max_op_age_ticks;
+            config.world = world.clone();
+            config.authority = AuthorityMode::Scripted;
+            Cluster::new(config).expect("cluster")
+        })
+        .collect();
+    let ball = ball_at(1.0, ids[1]);
+    let mass = ball_mass(&ball);
+    clusters[1]
+        .spawn_owned(&ball, BodyRole::Dynamic)
+        .expect("spawn");
+    let mut clock = HandClock::new(clusters[0].config().dt);
+    for _ in 0..3 {
+        let now = clock.advance();
+        for cluster in &mut clusters {
+            cluster.tick_at(now, |_, _| {}).expect("tick");
+        }
+    }
+    let east = clusters.pop().expect("east");
+    let mut west = clusters.pop().expect("west");
+    west.tick_at(clock.advance(), |_, physics| {
+        physics
+            .apply_impulse(ball.id, [mass, 0.0, 0.0])
+            .expect("routed to east");
+    })
+    .expect("west writes");
+    // East dies unread (no leave: a crash), its transport with it.
+    drop(east);
+    for _ in 0..40 {
+        west.tick_at(clock.advance(), |_, _| {})
+            .expect("west ticks");
+    }
+    (west, ball)
+}
+
+#[test]
+fn a_write_to_a_dead_owner_is_applied_once_by_the_adopter() {
+    let (west, ball) = dead_owner(30);
+    let s = west.stats();
+    assert_eq!(s.entities_adopted, 1, "{s:?}");
+    assert_eq!(
+        s.ops_applied, 1,
+        "west, now the owner, applied its write: {s:?}"
+    );
+    assert_eq!(west.ops_unanswered(), 0);
+    let v = linvel_x(&west, ball.id);
+    assert!((v - 1.0).abs() < 1e-3, "Δv = J/m, once: {v}");
+}
+
+#[test]
+fn a_write_older_than_its_age_limit_is_dropped_and_counted() {
+    let (west, ball) = dead_owner(5);
+    let s = west.stats();
+    assert_eq!(s.entities_adopted, 1, "{s:?}");
+    assert_eq!((s.ops_applied, s.ops_expired), (0, 1), "{s:?}");
+    assert_eq!(west.ops_unanswered(), 0);
+    assert_eq!(linvel_x(&west, ball.id), 0.0, "not applied");
+}
