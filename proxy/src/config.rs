@@ -116,8 +116,9 @@ pub struct ClusterConfig {
     /// only bytes (the owner applies each op once).
     pub op_retry_ticks: u64,
     /// A routed write older than this many ticks is not applied: the owner drops it, counted
-    /// in `ClusterStats::ops_dropped_stale`, and the sender stops resending it
-    /// (`ops_expired`). Age is counted on each holder's own clock, so clusters need not share
+    /// in `ClusterStats::ops_dropped_stale`, and answers, so the sender forgets it (a sender
+    /// that hears nothing for twice `neighbour_timeout_ticks` more gives it up, counted in
+    /// `ops_expired`). Age is counted on each holder's own clock, so clusters need not share
     /// a tick count. Default 30 (0.5 s at 60 Hz): enough for two resends after lost frames
     /// and a slow network, while a push applied later lands on a body that has moved on
     /// (a metre at 2 m/s) in a scene that has moved on; writes caught by a neighbour's death

@@ -151,9 +151,6 @@ pub(crate) struct Unanswered {
     pub(crate) due_tick: u64,
     /// Answered "not here" by the cluster it was last sent to.
     pub(crate) returned: bool,
-    /// Too old to send again: kept only to hear a late answer (a receiver that stalled
-    /// applies what it finds in its buffer on waking, its world as late as the op).
-    pub(crate) expired: bool,
 }
 
 impl Unanswered {
@@ -340,7 +337,6 @@ mod tests {
             born_tick: 0,
             due_tick,
             returned: false,
-            expired: false,
         }
     }
 

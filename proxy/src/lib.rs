@@ -112,8 +112,8 @@
 //! applies one twice: a repeat is answered and counted ([`ClusterStats::ops_repeated`]); a
 //! number older than the window is dropped, counted. An op older than `max_op_age_ticks` (its
 //! age counted on each holder's own clock) is dropped by the owner
-//! ([`ClusterStats::ops_dropped_stale`]), and its sender stops sending it
-//! ([`ClusterStats::ops_expired`], counted once no late answer came). An op reaching a
+//! ([`ClusterStats::ops_dropped_stale`]) and answered; a sender that hears nothing for twice
+//! `neighbour_timeout_ticks` more gives it up ([`ClusterStats::ops_expired`]). An op reaching a
 //! cluster which no longer owns its target is taken on and forwarded, once, to the owner that
 //! cluster knows ([`ClusterStats::ops_forwarded`]), which then answers the forwarder; a
 //! forwarded op that misses again is answered *not here* to the forwarder, which sends it on

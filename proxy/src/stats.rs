@@ -147,8 +147,9 @@ pub struct ClusterStats {
     pub ops_repeated: u64,
     /// Routed writes received older than `max_op_age_ticks`: dropped as stale.
     pub ops_dropped_stale: u64,
-    /// Routed writes this cluster stopped sending, unanswered when `max_op_age_ticks` old:
-    /// any owner would drop them as stale (or one applied them and its answer was lost).
+    /// Routed writes this cluster gave up, unanswered `max_op_age_ticks` and twice
+    /// `neighbour_timeout_ticks` after they were made: no owner could be reached (or one
+    /// applied them and died before its answer went out).
     pub ops_expired: u64,
     /// Routed writes dropped because their entity exists nowhere this cluster or the one it
     /// was sent to knows of.

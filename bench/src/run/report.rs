@@ -235,6 +235,7 @@ pub fn table(report: &RunReport) -> String {
             applied here, drop = dropped here; cont> contacts with proxies sent to their owner, \
             cont< received; ho> hand-offs out, ho< in; ovfl = messages lost to a full buffer, \
             bad = frames refused (undecodable, other version, wrong sender, replayed, implausible tick)\n";
+    out += &bytes_line(report);
     out += &recording_line(report);
     out += "\n";
 
@@ -337,6 +338,29 @@ fn millis(nanos: u64) -> String {
     format!("{:.2}", nanos as f64 / 1e6)
 }
 
+/// What the pods published a tick, all pods summed: replication frames, and events frames
+/// (routed ops, their answers, contacts, seam impulses).
+fn bytes_line(report: &RunReport) -> String {
+    let ticks = report
+        .pods
+        .iter()
+        .map(|p| p.ticks)
+        .max()
+        .unwrap_or(0)
+        .max(1) as f64;
+    let sum = |f: fn(&seam_proxy::ClusterStats) -> u64| {
+        report.pods.iter().map(|p| f(&p.cluster_stats)).sum::<u64>() as f64
+    };
+    let replication = sum(|s| s.replication_bytes);
+    let events = sum(|s| s.events_bytes);
+    format!(
+        "published a tick, all pods: {:.1} kB replication + {:.2} kB events = {:.1} kB\n",
+        replication / ticks / 1e3,
+        events / ticks / 1e3,
+        (replication + events) / ticks / 1e3
+    )
+}
+
 /// What recording cost each pod a tick, if the pods recorded (empty otherwise).
 fn recording_line(report: &RunReport) -> String {
     let costs: Vec<String> = report
@@ -396,6 +420,7 @@ pub fn markdown(report: &RunReport) -> String {
         ]);
     }
     let mut out = pods.render();
+    out += &bytes_line(report);
     out += &recording_line(report);
     let o = &report.ops;
     if o.ops > 0 {

@@ -194,28 +194,26 @@ impl Cluster {
         let me = self.config.cluster_id;
         for (key, mut pending) in self.outstanding.take_due(tick) {
             let age = pending.age(tick);
-            if pending.expired {
-                // No late answer either: nobody applied it.
+            // Past its age limit any owner drops it as stale — unless it settled it already
+            // (its answer lost, say to an outage): so it is still sent, to be answered either
+            // way, for as long as an owner may stay silent and still be alive. Only then, with
+            // no answer, is it given up.
+            let answer_for = self.config.neighbour_timeout_ticks.max(1) * 2;
+            if age >= self.config.max_op_age_ticks + answer_for {
                 self.stats.ops_expired += 1;
-                continue;
-            }
-            if age >= self.config.max_op_age_ticks {
-                // Any owner would drop it as stale now; one that stalled may still apply a
-                // copy it holds (its world is as late as the op), so wait for an answer as long
-                // as it may stay silent and still be alive.
-                pending.expired = true;
-                pending.due_tick = tick + self.config.neighbour_timeout_ticks.max(1) * 2;
-                if !self.outstanding.keep(key, pending) {
-                    self.stats.ops_dropped_queue_full += 1;
-                }
                 continue;
             }
             let target = pending.op.op.target();
             let owner = self.sim.info(target).map(|info| info.owner);
             let to = match owner {
                 Some(owner) if owner == me => {
-                    // Adopted or handed here since: applied here, once.
-                    if self.settled.verdict(key) == Verdict::New {
+                    // Adopted or handed here since: applied here, once, if young enough.
+                    if self.settled.verdict(key) == Verdict::New
+                        && age + 1 > self.config.max_op_age_ticks
+                    {
+                        self.settle(key);
+                        self.stats.ops_dropped_stale += 1;
+                    } else if self.settled.verdict(key) == Verdict::New {
                         let arrival = Arrival {
                             published_ns: monotonic_ns(),
                             received_ns: monotonic_ns(),
@@ -288,7 +286,6 @@ impl Cluster {
                 born_tick: tick as i64 - i64::from(op.age_ticks),
                 due_tick: tick + retry,
                 returned: false,
-                expired: false,
             };
             if key.0 == me {
                 self.stats.ops_routed += 1;
