@@ -101,7 +101,8 @@ pub struct MemoryRow {
     /// Growth of the last sample over the base, percent (`None`: the incarnation lived too
     /// short to judge).
     pub growth_pct: Option<f64>,
-    /// Growth of the largest sample after warm-up over the largest of warm-up, percent.
+    /// Growth of the largest sample after warm-up over the end of warm-up (the base),
+    /// percent: memory is flat when the peak, not only the end, stays near the base.
     pub peak_growth_pct: Option<f64>,
     /// One sample every 30 s of the incarnation's life: (seconds since launch, KiB).
     pub series_kib: Vec<(f64, u64)>,
@@ -142,7 +143,7 @@ impl MemoryRow {
             max_kib,
             end_kib,
             growth_pct: judged.then(|| growth(end_kib, base_kib)),
-            peak_growth_pct: judged.then(|| growth(max_kib, warmup_max_kib)),
+            peak_growth_pct: judged.then(|| growth(max_kib, base_kib)),
             series_kib,
         }
     }
@@ -629,7 +630,7 @@ pub fn table(r: &ChaosReport) -> String {
     out += &format!(
         "warm-up = first half of the pod's last life, or until its first hold of its largest \
          custody of a neighbour's bodies ended if that was later; growth = end of run over end of warm-up; \
-         peak = largest sample after warm-up over the largest during it; each at most \
+         peak = largest sample after warm-up over the end of warm-up; each at most \
          +{MEMORY_BOUND_PCT} % (a pod whose last life was too short is not judged){}\n",
         mark(r.memory_holds())
     );
@@ -743,6 +744,7 @@ pub fn markdown(r: &ChaosReport) -> String {
         ("states rejected", Right),
         ("ops routed / applied / too old / lost", Left),
         ("resent / repeats", Left),
+        ("unanswered at end + at kills / settled beyond routed", Left),
         ("taken for dead / rejoined", Left),
         (
             "disconnects / reconnects, s down (pods summed), publishes dropped",
@@ -764,6 +766,12 @@ pub fn markdown(r: &ChaosReport) -> String {
             grouped(op.lost())
         ),
         pair(op.resent, op.repeated),
+        format!(
+            "{} + {} / {}",
+            grouped(op.unanswered_at_end),
+            grouped(op.unanswered_killed),
+            grouped(op.surplus())
+        ),
         pair(rc.neighbours_lost, rc.neighbours_rejoined),
         if redis {
             format!(
@@ -808,6 +816,21 @@ mod tests {
         assert_eq!(leak.holds(), Some(false), "{leak:?}");
         let flat = MemoryRow::new("p", &life(40, |_| 30_000, |_| 600));
         assert_eq!(flat.holds(), Some(true), "{flat:?}");
+    }
+
+    #[test]
+    fn a_peak_after_warm_up_is_judged_against_the_end_of_warm_up() {
+        // A spike in warm-up does not excuse one after it: memory must stay flat, peak and
+        // end, against where warm-up left it.
+        let rss = |t: f64| match t {
+            t if (5.0..8.0).contains(&t) => 34_000,
+            t if (30.0..33.0).contains(&t) => 33_500,
+            _ => 30_000,
+        };
+        let row = MemoryRow::new("p", &life(40, rss, |_| 600));
+        assert_eq!(row.growth_pct, Some(0.0));
+        assert!(row.peak_growth_pct.is_some_and(|p| p > 10.0), "{row:?}");
+        assert_eq!(row.holds(), Some(false), "{row:?}");
     }
 
     #[test]
