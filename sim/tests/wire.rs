@@ -97,11 +97,13 @@ fn events() -> PhysicsEventsFrame {
         acks: vec![
             OpAck {
                 seq: 1_796_000_000_000_007,
+                more: 15,
                 issuer: None,
                 done: true,
             },
             OpAck {
                 seq: 12,
+                more: 0,
                 issuer: Some(ClusterId::from_u128(11)),
                 done: false,
             },

@@ -161,6 +161,13 @@ fn repeats_and_replays_of_an_op_are_applied_once(ctx: &TestContext) {
         frame(a, 4, vec![op(push, SEQ + 100_000, 0)]),
         frame(a, 5, vec![op(push, SEQ + 100_000 - 20_000, 0)]),
         frame(a, 6, vec![op(unknown, SEQ + 100_001, 0)]),
+        frame(
+            a,
+            7,
+            (0..3)
+                .map(|i| op(PhysicsOp::Wake { target: ball.id }, SEQ + 100_002 + i, 0))
+                .collect(),
+        ),
     ];
     let mut answers: Vec<OpAck> = Vec::new();
     for bytes in &frames {
@@ -181,8 +188,8 @@ fn repeats_and_replays_of_an_op_are_applied_once(ctx: &TestContext) {
     let s = cluster.stats();
     assert_eq!(s.frames_replayed, 1, "the same frame twice: {s:?}");
     assert_eq!(
-        s.ops_applied, 2,
-        "the push, and the new number far ahead: {s:?}"
+        s.ops_applied, 5,
+        "the push, the new number far ahead, three wakes: {s:?}"
     );
     assert_eq!(s.ops_repeated, 1, "the push in a later frame: {s:?}");
     assert_eq!(s.ops_dropped_stale, 1, "{s:?}");
@@ -193,7 +200,12 @@ fn repeats_and_replays_of_an_op_are_applied_once(ctx: &TestContext) {
         (v - 2.0).abs() < 1e-3,
         "two pushes of 1 m/s applied, no more: {v}"
     );
-    let done = |seq: u64| answers.iter().filter(|a| a.seq == seq && a.done).count();
+    let done = |seq: u64| {
+        answers
+            .iter()
+            .filter(|a| a.seqs().contains(&seq) && a.done)
+            .count()
+    };
     assert_eq!(
         done(SEQ),
         2,
@@ -205,6 +217,12 @@ fn repeats_and_replays_of_an_op_are_applied_once(ctx: &TestContext) {
     assert!(
         answers.iter().any(|a| a.seq == SEQ + 100_001 && !a.done),
         "the unknown entity answered not here: {answers:?}"
+    );
+    assert!(
+        answers
+            .iter()
+            .any(|a| a.seq == SEQ + 100_002 && a.more == 2 && a.done),
+        "three consecutive numbers answered in one: {answers:?}"
     );
 }
 

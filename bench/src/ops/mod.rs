@@ -158,13 +158,16 @@ fn measure(
         tick: 0,
         published_ns: 0,
         ops: Vec::with_capacity(batch),
-        // Answers to as many ops of the other side, numbered as a pod numbers its ops.
-        acks: (0..acks as u64)
-            .map(|i| OpAck {
-                seq: FIRST_SEQ + i,
+        // Answers to as many ops of the other side, numbered as a pod numbers its ops: one
+        // run of consecutive numbers, as a pod answers a batch.
+        acks: (acks > 0)
+            .then(|| OpAck {
+                seq: FIRST_SEQ,
+                more: (acks - 1) as u16,
                 issuer: None,
                 done: true,
             })
+            .into_iter()
             .collect(),
         contacts: Vec::new(),
         impulses: Vec::new(),
@@ -280,10 +283,16 @@ fn ratios(rows: &[OpsRow]) -> String {
     let mut batches: Vec<usize> = rows.iter().map(|r| r.batch).collect();
     batches.sort_unstable();
     batches.dedup();
+    // Rows measured more than once (`--acks off,on,off,on`): the median of their p50s, so
+    // drift on a shared machine weighs on both sides alike.
     let p50 = |name: &str, batch: usize, acked: bool| {
-        rows.iter()
-            .find(|r| r.transport == name && r.batch == batch && (r.acks > 0) == acked)
+        let mut p50s: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.transport == name && r.batch == batch && (r.acks > 0) == acked)
             .map(|r| r.stages.transport.p50_ns as f64)
+            .collect();
+        p50s.sort_by(f64::total_cmp);
+        p50s.get(p50s.len() / 2).copied()
     };
     for &batch in &batches {
         let acked = rows.iter().all(|r| r.acks > 0);

@@ -62,22 +62,37 @@ impl Cluster {
         let me = self.config.cluster_id;
         for (frame, _) in events {
             for ack in &frame.acks {
-                let key = (ack.issuer.unwrap_or(me), ack.seq);
-                if ack.done {
-                    if self.outstanding.take(key).is_some() {
-                        self.stats.ops_acked += 1;
+                let issuer = ack.issuer.unwrap_or(me);
+                for seq in ack.seqs() {
+                    let key = (issuer, seq);
+                    if ack.done {
+                        if self.outstanding.take(key).is_some() {
+                            self.stats.ops_acked += 1;
+                        }
+                    } else {
+                        self.outstanding.returned(key, tick);
                     }
-                } else {
-                    self.outstanding.returned(key, tick);
                 }
             }
         }
     }
 
-    /// Answers an op received from `to` in its next events frame.
+    /// Answers an op received from `to` in its next events frame: the answer to the op before
+    /// it grows when the two are consecutive numbers of one issuer, answered alike.
     fn answer(&mut self, to: ClusterId, routed: &RoutedOp, done: bool) {
-        self.outgoing_acks.entry(to).or_default().push(OpAck {
+        let acks = self.outgoing_acks.entry(to).or_default();
+        if let Some(last) = acks.last_mut()
+            && last.issuer == routed.issuer
+            && last.done == done
+            && last.more < u16::MAX
+            && last.seq.checked_add(u64::from(last.more) + 1) == Some(routed.seq)
+        {
+            last.more += 1;
+            return;
+        }
+        acks.push(OpAck {
             seq: routed.seq,
+            more: 0,
             issuer: routed.issuer,
             done,
         });

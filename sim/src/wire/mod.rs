@@ -239,6 +239,13 @@ pub struct RoutedOp {
     pub age_ticks: u32,
 }
 
+impl OpAck {
+    /// The numbers the answer covers.
+    pub fn seqs(&self) -> std::ops::RangeInclusive<u64> {
+        self.seq..=self.seq.saturating_add(u64::from(self.more))
+    }
+}
+
 impl RoutedOp {
     /// Whether a cluster other than the frame's sender issued it (it was forwarded).
     pub fn forwarded(&self) -> bool {
@@ -246,11 +253,14 @@ impl RoutedOp {
     }
 }
 
-/// A receiver's answer to a routed op, in its next events frame to the op's sender.
+/// A receiver's answer to routed ops, in its next events frame to their sender: one answer for
+/// a run of consecutive numbers of one issuer (a batch of ops is answered in a few bytes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct OpAck {
-    /// The op's number ([`RoutedOp::seq`]).
+    /// The first op's number ([`RoutedOp::seq`]).
     pub seq: u64,
+    /// How many consecutive numbers from `seq` the answer covers, less one.
+    pub more: u16,
     /// Its issuer when that is not the frame's destination (the destination forwarded it).
     pub issuer: Option<ClusterId>,
     /// `true`: settled here — applied, or dropped for good (too old, invalid, a repeat of one

@@ -275,7 +275,8 @@ pub(crate) enum Command {
         batch: Vec<usize>,
         /// Answers carried in each frame, comma separated: `off` (none) and `on` (one per op of
         /// the batch, as a pod's frame carries its answers to the ops the other side sent it).
-        /// Both, measured in turn, give the cost of acknowledgements as a ratio in one run.
+        /// Both, measured in turn, give the cost of acknowledgements as a ratio in one run;
+        /// repeat them (`off,on,off,on,off,on`) and the ratio is of the medians.
         #[arg(long, default_value = "off,on", value_delimiter = ',')]
         acks: Vec<AckMode>,
         /// Timed frames per row.
