@@ -1,5 +1,7 @@
 //! Routed ops delivered at least once and applied once: the numbers an owner has settled, per
 //! issuer ([`Settled`]), and the ops a sender has not had answered yet ([`Unanswered`]).
+//! Contact reports travel the same way: numbered from the same counter, answered in the same
+//! answers, surfaced once.
 //!
 //! Every op is named by its issuer and the issuer's number for it ([`OpKey`]). A sender keeps
 //! each op it sends (issued here, or taken on to forward) until the receiver answers it in an
@@ -9,7 +11,7 @@
 //! answers a repeat without applying it, and drops (counted) a number older than that, which
 //! it can no longer tell from a repeat.
 
-use seam_sim::wire::{ClusterId, IdMap, RoutedOp};
+use seam_sim::wire::{ClusterId, IdMap};
 
 /// Numbers of one issuer an owner remembers: the newest it has seen and the 16 383 before (2 KiB
 /// per issuer). An issuer numbers all its ops from one counter, so a repeat is told apart as
@@ -137,11 +139,12 @@ impl Settled {
     }
 }
 
-/// An op sent and not answered yet.
+/// An op (or contact report) sent and not answered yet.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Unanswered {
-    /// The op as first sent (its issuer filled in: this cluster or the one it forwards for).
-    pub(crate) op: RoutedOp,
+pub(crate) struct Unanswered<T> {
+    /// What was sent, as first sent (an op's issuer filled in: this cluster or the one it
+    /// forwards for).
+    pub(crate) sent: T,
     /// The cluster it was last sent to (or meant for, if that one was gone).
     pub(crate) to: ClusterId,
     /// This cluster's tick the op's age counts from: its tick when the op came into its hands,
@@ -153,21 +156,30 @@ pub(crate) struct Unanswered {
     pub(crate) returned: bool,
 }
 
-impl Unanswered {
-    /// The op's age at this cluster's `tick`.
+impl<T> Unanswered<T> {
+    /// Its age at this cluster's `tick`.
     pub(crate) fn age(&self, tick: u64) -> u64 {
         (tick as i64 - self.born_tick).max(0) as u64
     }
 }
 
-/// The ops this cluster has sent and not had answered, by name.
-#[derive(Debug, Default)]
-pub(crate) struct Outstanding {
-    ops: IdMap<OpKey, Unanswered>,
+/// The ops (or contact reports) this cluster has sent and not had answered, by name.
+#[derive(Debug)]
+pub(crate) struct Outstanding<T> {
+    ops: IdMap<OpKey, Unanswered<T>>,
     per_destination: IdMap<ClusterId, usize>,
 }
 
-impl Outstanding {
+impl<T> Default for Outstanding<T> {
+    fn default() -> Self {
+        Self {
+            ops: IdMap::default(),
+            per_destination: IdMap::default(),
+        }
+    }
+}
+
+impl<T: Copy> Outstanding<T> {
     /// How many there are.
     pub(crate) fn len(&self) -> usize {
         self.ops.len()
@@ -180,7 +192,7 @@ impl Outstanding {
 
     /// Keeps an op just sent (or meant) for `op.to`; `false` when that destination already has
     /// [`MAX_UNANSWERED`] (the op is not kept: the caller counts it dropped).
-    pub(crate) fn keep(&mut self, key: OpKey, op: Unanswered) -> bool {
+    pub(crate) fn keep(&mut self, key: OpKey, op: Unanswered<T>) -> bool {
         if let Some(old) = self.ops.get_mut(&key) {
             let was = old.to;
             *old = op;
@@ -210,7 +222,7 @@ impl Outstanding {
     }
 
     /// Takes `key` out (answered, or given up); `None` if it was not kept.
-    pub(crate) fn take(&mut self, key: OpKey) -> Option<Unanswered> {
+    pub(crate) fn take(&mut self, key: OpKey) -> Option<Unanswered<T>> {
         let op = self.ops.swap_remove(&key)?;
         self.forget_one(op.to);
         Some(op)
@@ -236,7 +248,7 @@ impl Outstanding {
     }
 
     /// Takes the ops due at `tick` (to be sent again or given up).
-    pub(crate) fn take_due(&mut self, tick: u64) -> Vec<(OpKey, Unanswered)> {
+    pub(crate) fn take_due(&mut self, tick: u64) -> Vec<(OpKey, Unanswered<T>)> {
         let due: Vec<OpKey> = self
             .ops
             .iter()
@@ -252,6 +264,7 @@ impl Outstanding {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use seam_sim::wire::RoutedOp;
 
     fn issuer() -> ClusterId {
         ClusterId::from_u128(1)
@@ -321,9 +334,9 @@ mod tests {
         );
     }
 
-    fn unanswered(to: u128, due_tick: u64) -> Unanswered {
+    fn unanswered(to: u128, due_tick: u64) -> Unanswered<RoutedOp> {
         Unanswered {
-            op: RoutedOp {
+            sent: RoutedOp {
                 op: seam_sim::wire::PhysicsOp::Wake {
                     target: seam_sim::wire::EntityId::from_u128(9),
                 },

@@ -86,7 +86,8 @@
 //! body, so each world solves the contact from the same bodies and keeps its own body's share:
 //! a light ball bounces off a heavy crate and the crate takes its momentum, in the step they
 //! meet, with nothing routed. Contacts between a body of this cluster and a proxy are also
-//! sent to the proxy's owner, with their impulse and normal; each cluster surfaces a contact
+//! sent to the proxy's owner, with their impulse and normal, delivered as routed ops are (kept
+//! until answered, sent again, surfaced once per number); each cluster surfaces a contact
 //! once, whether it saw it itself or first heard of it (see `contact_merge`).
 //!
 //! **Scenery** — terrain, floors, walls — is loaded by every cluster itself

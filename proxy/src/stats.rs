@@ -40,10 +40,25 @@ pub struct ClusterStats {
     pub ops_dropped_invalid: u64,
     /// Routed writes with a value beyond `ClusterConfig::max_magnitude`: dropped.
     pub ops_dropped_absurd: u64,
-    /// Contacts between a local body and a proxy, reported to the proxy's owner.
+    /// Contacts between a local body and a proxy, reported to the proxy's owner, each counted
+    /// once however often it is sent.
     pub contacts_sent: u64,
-    /// Contacts reported by neighbours.
+    /// Contact reports sent again: unanswered after `ClusterConfig::op_retry_ticks`, or meant
+    /// for a neighbour taken for dead (then sent to the other entity's owner after adoption).
+    pub contacts_resent: u64,
+    /// Contact reports answered by their receiver, and forgotten.
+    pub contacts_acked: u64,
+    /// Contact reports given up by their sender: unanswered past `max_op_age_ticks` and the
+    /// time an owner may stay silent, the other entity gone from this world, or the queue for
+    /// its owner full.
+    pub contacts_given_up: u64,
+    /// Contact reports received from neighbours, repeats included.
     pub contacts_received: u64,
+    /// Of those, reports surfaced (or merged) here before: answered, not surfaced again.
+    pub contacts_repeated: u64,
+    /// Of those, reports older than `ClusterConfig::max_op_age_ticks` (or than the window of
+    /// numbers kept): dropped, answered.
+    pub contacts_dropped_stale: u64,
     /// Contacts seen twice — in this world and in a neighbour's report — and surfaced once
     /// (see `crate::contact_merge`): the second copies, dropped.
     pub contacts_merged: u64,

@@ -109,6 +109,8 @@ fn events() -> PhysicsEventsFrame {
             },
         ],
         contacts: vec![ContactReport {
+            seq: 1_700_000_000_000_003,
+            age_ticks: 11,
             a: target,
             b: EntityId::from_u128(4),
             started: true,

@@ -1,19 +1,24 @@
 //! No routed write lost, none applied twice: an op in a lost frame is sent again and applied
 //! once; repeats and replays of an op are answered and never applied again; an op too old is
-//! dropped and counted; an op whose owner died follows its entity to the adopter.
+//! dropped and counted; an op whose owner died follows its entity to the adopter. Contact
+//! reports likewise: one in a lost frame is sent again, and each surfaces once.
 
 use std::time::Duration;
 
 use seam_proxy::{AuthorityMode, Cluster, ClusterConfig, Region, WorldCluster, physics_events};
 use seam_sim::BodyRole;
 use seam_sim::wire::{
-    self, ClusterId, EntityId, EntityState, OpAck, PhysicsEventsFrame, PhysicsOp, RoutedOp,
+    self, ClusterId, ContactReport, EntityId, EntityState, OpAck, PhysicsEventsFrame, PhysicsOp,
+    RoutedOp,
 };
 use seam_tests::{HandClock, TestContext, ball_at};
 
 seam_tests::backend_tests!(
     [shm: Shm, local: Local, redis: Redis],
-    [repeats_and_replays_of_an_op_are_applied_once]
+    [
+        repeats_and_replays_of_an_op_are_applied_once,
+        a_contact_report_surfaces_once_and_a_stale_one_not_at_all
+    ]
 );
 
 /// The mass of `ball_at`'s ball (0.5 m radius, 100 kg/m³): an impulse of this many N·s gives
@@ -96,6 +101,71 @@ fn an_op_in_a_lost_frame_is_sent_again_and_applied_once() {
     );
     let v = linvel_x(&clusters[1], ball.id);
     assert!((v - 1.0).abs() < 1e-3, "Δv = J/m, once: {v}");
+}
+
+/// A ball of A's touches B's ball: A's world reports the contact to B, whose buffer of 4 loses
+/// the frame while B stalls. A sends the report again; B answers it, A forgets it, and B's game
+/// code sees the contact start once (B's own world sees it too: the two copies merge).
+#[test]
+fn a_contact_report_in_a_lost_frame_is_sent_again_and_surfaces_once() {
+    let ctx = TestContext::new(seam_transport::Backend::Shm).expect("shm is always there");
+    let (mut clusters, a, b) = pair(&ctx.url_with("buffer=4"), |_| {});
+    let theirs = ball_at(1.0, b);
+    clusters[1]
+        .spawn_owned(&theirs, BodyRole::Dynamic)
+        .expect("spawn B's");
+    for _ in 0..3 {
+        for cluster in &mut clusters {
+            cluster.tick(|_, _| {}).expect("tick");
+        }
+    }
+    // Overlapping B's ball by 5 cm: the contact starts in A's next step.
+    let ours = ball_at(0.05, a);
+    clusters[0]
+        .spawn_owned(&ours, BodyRole::Dynamic)
+        .expect("spawn A's");
+    let retry = clusters[0].config().op_retry_ticks;
+    for _ in 0..retry + 2 {
+        clusters[0].tick(|_, _| {}).expect("A ticks");
+    }
+    assert!(
+        clusters[0].stats().contacts_sent >= 1,
+        "A reported the contact: {:?}",
+        clusters[0].stats()
+    );
+    let pair_of = |c: &seam_sim::ContactEvent| {
+        (c.a == ours.id && c.b == theirs.id) || (c.a == theirs.id && c.b == ours.id)
+    };
+    let mut seen_by_b = 0;
+    for _ in 0..8 {
+        clusters[0].tick(|_, _| {}).expect("A ticks");
+        clusters[1]
+            .tick(|ctx, _| {
+                seen_by_b += ctx
+                    .contacts()
+                    .iter()
+                    .filter(|c| pair_of(c) && c.started)
+                    .count();
+            })
+            .expect("B ticks");
+    }
+    let (sa, sb) = (clusters[0].stats(), clusters[1].stats());
+    assert!(
+        clusters[1].transport_stats().overflow_drops > 0,
+        "B lost frames: {:?}",
+        clusters[1].transport_stats()
+    );
+    assert!(sa.contacts_resent >= 1, "A sent it again: {sa:?}");
+    assert!(
+        sb.contacts_received > sb.contacts_repeated + sb.contacts_dropped_stale,
+        "B took it in: {sb:?}"
+    );
+    assert_eq!(
+        (sa.contacts_acked, clusters[0].contacts_unanswered()),
+        (sa.contacts_sent, 0),
+        "every report answered: {sa:?}"
+    );
+    assert_eq!(seen_by_b, 1, "B's game code saw the start once: {sb:?}");
 }
 
 /// The numbers the test gives its ops: as a pod's, microseconds of the wall clock.
@@ -224,6 +294,105 @@ fn repeats_and_replays_of_an_op_are_applied_once(ctx: &TestContext) {
             .any(|a| a.seq == SEQ + 100_002 && a.more == 2 && a.done),
         "three consecutive numbers answered in one: {answers:?}"
     );
+}
+
+/// A contact report of `a` and `b` starting, numbered `seq`, `age_ticks` old.
+fn report(a: EntityId, b: EntityId, started: bool, seq: u64, age_ticks: u32) -> ContactReport {
+    ContactReport {
+        seq,
+        age_ticks,
+        a,
+        b,
+        started,
+        tick: 0,
+        impulse: [0.0; 3],
+        normal: [1.0, 0.0, 0.0],
+    }
+}
+
+/// The test plays B's neighbour A by hand: it reports a contact start, the same report again
+/// in a later frame (a resend, aged past the window two copies merge in), a report too old,
+/// and the contact's stop. B's game code sees the start and the stop, once each; B counts the
+/// repeat and the stale report, and answers every report.
+fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) {
+    let (a, b) = (ClusterId::random(), ClusterId::random());
+    let mut config = ClusterConfig::new(b, vec![a], &ctx.url());
+    config.gravity = [0.0; 3];
+    config.authority = AuthorityMode::Scripted;
+    let mut cluster = Cluster::new(config).expect("cluster B");
+    let ball = ball_at(1.0, b);
+    cluster
+        .spawn_owned(&ball, BodyRole::Dynamic)
+        .expect("spawn");
+    let mut injector = ctx.open();
+    injector.subscribe(&physics_events(a)).expect("subscribe");
+    let to_b = physics_events(b);
+    let (theirs, other) = (EntityId::random(), EntityId::random());
+    let max_age = cluster.config().max_op_age_ticks as u32;
+    let reports = [
+        report(theirs, ball.id, true, SEQ, 0),
+        report(theirs, ball.id, true, SEQ, 12),
+        report(other, ball.id, true, SEQ + 1, max_age),
+        report(theirs, ball.id, false, SEQ + 2, 0),
+    ];
+    let mut answers: Vec<OpAck> = Vec::new();
+    let mut seen = Vec::new();
+    for (tick, report) in (1..).zip(reports) {
+        let bytes = wire::encode(&PhysicsEventsFrame {
+            from: a,
+            tick,
+            published_ns: 0,
+            ops: Vec::new(),
+            acks: Vec::new(),
+            contacts: vec![report],
+            impulses: Vec::new(),
+            leaving: false,
+        });
+        injector.publish(&to_b, &bytes).expect("publish");
+        std::thread::sleep(Duration::from_millis(20));
+        cluster.wait(Duration::from_millis(200)).expect("wait");
+        cluster
+            .tick(|ctx, _| {
+                seen.extend(
+                    ctx.contacts()
+                        .iter()
+                        .filter(|c| c.reported_by == Some(a))
+                        .map(|c| (c.a, c.started)),
+                );
+            })
+            .expect("tick");
+        while let Some(message) = seam_tests::receive(injector.as_mut(), Duration::from_millis(200))
+        {
+            let reply: PhysicsEventsFrame = wire::decode(&message.payload).expect("B's frame");
+            answers.extend(reply.acks);
+            if reply.tick == cluster.sim().tick() - 1 {
+                break;
+            }
+        }
+    }
+    let s = cluster.stats();
+    assert_eq!(
+        seen,
+        vec![(theirs, true), (theirs, false)],
+        "the start and the stop, once each: {s:?}"
+    );
+    assert_eq!(
+        (
+            s.contacts_received,
+            s.contacts_repeated,
+            s.contacts_dropped_stale
+        ),
+        (4, 1, 1),
+        "{s:?}"
+    );
+    let done = |seq: u64| {
+        answers
+            .iter()
+            .filter(|a| a.seqs().contains(&seq) && a.done)
+            .count()
+    };
+    assert_eq!(done(SEQ), 2, "the report and its resend: {answers:?}");
+    assert_eq!((done(SEQ + 1), done(SEQ + 2)), (1, 1), "{answers:?}");
 }
 
 /// West [-30, 0] and east [0, 30] with a world map; east owns a ball at x = 1. West writes to

@@ -209,7 +209,7 @@ pub struct FrameCounts {
     pub states_rejected: u64,
 }
 
-/// Routed ops, by what became of them (see `seam_proxy::ClusterStats`).
+/// Routed ops (or contact reports), by what became of them (see `seam_proxy::ClusterStats`).
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct OpCounts {
     /// Made by game code (or the settling of seam contacts) and sent to an owner, each once
@@ -317,6 +317,10 @@ pub struct ChaosReport {
     pub frames: FrameCounts,
     /// Routed ops.
     pub ops: OpCounts,
+    /// Contact reports: `routed` counts those sent, `applied` those surfaced (or merged with
+    /// the receiver's own copy), `dropped_stale` those a receiver found too old,
+    /// `dropped_gone` those their sender gave up on.
+    pub contacts: OpCounts,
     /// Deaths, adoptions, outages.
     pub recovery: RecoveryCounts,
     /// Every entity owned once at the end?
@@ -406,6 +410,23 @@ impl ChaosReport {
                 .map(|p| p.ops_unanswered)
                 .sum(),
         };
+        let contacts = OpCounts {
+            routed: s.contacts_sent,
+            applied: s
+                .contacts_received
+                .saturating_sub(s.contacts_repeated + s.contacts_dropped_stale),
+            dropped_stale: s.contacts_dropped_stale,
+            dropped_gone: s.contacts_given_up,
+            resent: s.contacts_resent,
+            repeated: s.contacts_repeated,
+            unanswered_at_end: inputs.reports.iter().map(|r| r.contacts_unanswered).sum(),
+            unanswered_killed: inputs
+                .dead_incarnations
+                .iter()
+                .map(|p| p.contacts_unanswered)
+                .sum(),
+            ..OpCounts::default()
+        };
         recovery.neighbours_lost = s.neighbours_lost;
         recovery.neighbours_rejoined = s.neighbours_rejoined;
         recovery.entities_adopted = s.entities_adopted;
@@ -425,6 +446,7 @@ impl ChaosReport {
             injected: inputs.injected,
             frames,
             ops,
+            contacts,
             recovery,
             ownership: ownership::check(scene, run_id, inputs.reports),
             panics: inputs.panics,
@@ -473,8 +495,8 @@ impl ChaosReport {
 
     /// Whether the run met every target: every planned fault kind injected and every fault
     /// survived, every injected frame accounted for, no entity lost or owned twice, every
-    /// adoption returned, no routed op lost, memory within its bound, no panic, every pod ended well, nothing
-    /// else went wrong.
+    /// adoption returned, no routed op or contact report lost, memory within its bound, no
+    /// panic, every pod ended well, nothing else went wrong.
     pub fn holds(&self) -> bool {
         self.faults.all_survived()
             && self.failed_faults.is_empty()
@@ -483,6 +505,7 @@ impl ChaosReport {
             && self.ownership.holds()
             && self.adoptions_returned()
             && self.ops.lost() == 0
+            && self.contacts.lost() == 0
             && self.memory_holds()
             && self.panics == 0
             && self.exited_badly == 0
@@ -587,6 +610,23 @@ pub fn table(r: &ChaosReport) -> String {
         op.resent,
         op.repeated,
         op.forwarded
+    );
+    let c = &r.contacts;
+    out += &format!(
+        "contact reports: {} sent, {} surfaced or merged; {} too old, {} given up by their sender; \
+         {} unanswered at the end, {} with a killed sender; {} lost{}, {} settled beyond sent; \
+         {} resent, {} repeats not surfaced\n",
+        c.routed,
+        c.applied,
+        c.dropped_stale,
+        c.dropped_gone,
+        c.unanswered_at_end,
+        c.unanswered_killed,
+        c.lost(),
+        mark(c.lost() == 0),
+        c.surplus(),
+        c.resent,
+        c.repeated
     );
     let rc = &r.recovery;
     out += &format!(
@@ -745,6 +785,7 @@ pub fn markdown(r: &ChaosReport) -> String {
         ("ops routed / applied / too old / lost", Left),
         ("resent / repeats", Left),
         ("unanswered at end + at kills / settled beyond routed", Left),
+        ("contact reports sent / surfaced / too old / lost", Left),
         ("taken for dead / rejoined", Left),
         (
             "disconnects / reconnects, s down (pods summed), publishes dropped",
@@ -771,6 +812,13 @@ pub fn markdown(r: &ChaosReport) -> String {
             grouped(op.unanswered_at_end),
             grouped(op.unanswered_killed),
             grouped(op.surplus())
+        ),
+        format!(
+            "{} / {} / {} / {}",
+            grouped(r.contacts.routed),
+            grouped(r.contacts.applied),
+            grouped(r.contacts.dropped_stale),
+            grouped(r.contacts.lost())
         ),
         pair(rc.neighbours_lost, rc.neighbours_rejoined),
         if redis {

@@ -375,8 +375,9 @@ pub fn run_node(
             overruns += 1;
         }
         let done = due.tick + 1;
-        // Also after a tick that settled or sent a routed op: a pod killed a moment later
-        // leaves counts that add up with its neighbours' (see `seam chaos`'s op accounting).
+        // Also after a tick that settled or sent a routed op or contact report: a pod killed a
+        // moment later leaves counts that add up with its neighbours' (see `seam chaos`'s op
+        // accounting).
         let ops_now = op_counts(&pod.cluster().stats());
         let ops_moved = ops_now != ops_reported;
         if last_progress.elapsed() >= PROGRESS_EVERY || done == ticks || ops_moved {
@@ -396,6 +397,7 @@ pub fn run_node(
                 transport_stats: pod.cluster().transport_stats().into(),
                 rss_kib: rss_kib(),
                 ops_unanswered: pod.cluster().ops_unanswered() as u64,
+                contacts_unanswered: pod.cluster().contacts_unanswered() as u64,
             };
             if !args.quiet {
                 tracing::info!(target: "seam::pod", "{progress}");
@@ -464,6 +466,7 @@ pub fn run_node(
         record_time: args.record.is_some().then_some(record_time),
         rss_kib: rss_kib(),
         ops_unanswered: pod.cluster().ops_unanswered() as u64,
+        contacts_unanswered: pod.cluster().contacts_unanswered() as u64,
     };
     tracing::info!(
         target: "seam::pod",
@@ -501,12 +504,15 @@ fn pod_name(part: &Part) -> &str {
     }
 }
 
-/// The routed-op counters whose change makes a pod report progress at once.
-fn op_counts(s: &seam_proxy::ClusterStats) -> [u64; 4] {
+/// The routed-op and contact-report counters whose change makes a pod report progress at once.
+fn op_counts(s: &seam_proxy::ClusterStats) -> [u64; 7] {
     [
         s.ops_routed,
         s.ops_applied + s.ops_dropped(),
         s.ops_acked,
         s.ops_forwarded,
+        s.contacts_sent,
+        s.contacts_received,
+        s.contacts_acked + s.contacts_given_up,
     ]
 }

@@ -45,6 +45,9 @@ pub struct NodeProgress {
     /// Routed ops sent and not answered yet (`Cluster::ops_unanswered`).
     #[serde(default)]
     pub ops_unanswered: u64,
+    /// Contact reports sent and not answered yet (`Cluster::contacts_unanswered`).
+    #[serde(default)]
+    pub contacts_unanswered: u64,
 }
 
 impl fmt::Display for NodeProgress {
@@ -186,4 +189,7 @@ pub struct NodeReport {
     /// Routed ops sent and not answered yet (`Cluster::ops_unanswered`).
     #[serde(default)]
     pub ops_unanswered: u64,
+    /// Contact reports sent and not answered yet (`Cluster::contacts_unanswered`).
+    #[serde(default)]
+    pub contacts_unanswered: u64,
 }

@@ -1,10 +1,14 @@
-//! Contacts across the seam: reports to the proxy's owner, the impulses each world gave its
-//! body, and settling them (see `crate::settle`).
+//! Contacts across the seam: reports to the proxy's owner (delivered like routed ops: kept
+//! until answered, sent again to whoever owns the other entity, surfaced once), the impulses
+//! each world gave its body, and settling them (see `crate::settle`).
 
-use seam_sim::BodyRole;
-use seam_sim::wire::{ContactReport, PhysicsEventsFrame, PhysicsOp, RoutedOp, SeamImpulseReport};
+use seam_sim::wire::{
+    ClusterId, ContactReport, PhysicsEventsFrame, PhysicsOp, RoutedOp, SeamImpulseReport,
+};
+use seam_sim::{BodyRole, ContactEvent};
 
 use crate::clock::monotonic_ns;
+use crate::delivery::{Unanswered, Verdict};
 use crate::settle::HALF_WAITS_TICKS;
 
 use super::{Cluster, NeighbourStatus, within};
@@ -33,10 +37,14 @@ impl Cluster {
                 // Scenery: nobody's to report to.
                 continue;
             }
+            let seq = self.next_op_seq;
+            self.next_op_seq += 1;
             self.outgoing_contacts
                 .entry(destination)
                 .or_default()
                 .push(ContactReport {
+                    seq,
+                    age_ticks: 0,
                     a: contact.a,
                     b: contact.b,
                     started: contact.started,
@@ -44,7 +52,149 @@ impl Cluster {
                     impulse: contact.impulse,
                     normal: contact.normal,
                 });
+        }
+    }
+
+    /// Surfaces each contact once per side (see `crate::contact_merge`): this world's own of
+    /// the last step, then the neighbours' reports. Each report's number is surfaced once; a
+    /// report older than `max_op_age_ticks` is dropped. Every report is answered.
+    pub(super) fn surface_contacts(&mut self, events: &[(PhysicsEventsFrame, u64)]) {
+        let tick = self.sim.tick();
+        let max_age = self.config.max_op_age_ticks;
+        let merge = &mut self.contact_merge;
+        merge.expire(tick, max_age);
+        let mut merged = 0;
+        self.sim.retain_contacts(|c| {
+            let new = merge.is_new(c, tick, 0, true);
+            merged += u64::from(!new);
+            new
+        });
+        let mut reported = Vec::new();
+        for (frame, _) in events {
+            for c in &frame.contacts {
+                self.stats.contacts_received += 1;
+                self.answer_number(frame.from, c.seq, None, true);
+                let key = (frame.from, c.seq);
+                match self.settled.verdict(key) {
+                    Verdict::New => self.settle(key),
+                    Verdict::Repeat => {
+                        self.stats.contacts_repeated += 1;
+                        continue;
+                    }
+                    Verdict::TooOld => {
+                        self.stats.contacts_dropped_stale += 1;
+                        continue;
+                    }
+                }
+                if u64::from(c.age_ticks) + 1 > max_age {
+                    self.stats.contacts_dropped_stale += 1;
+                    continue;
+                }
+                let event = ContactEvent {
+                    a: c.a,
+                    b: c.b,
+                    started: c.started,
+                    impulse: c.impulse,
+                    normal: c.normal,
+                    reported_by: Some(frame.from),
+                };
+                let age = u64::from(c.age_ticks);
+                if self
+                    .contact_merge
+                    .is_new(&event, tick.saturating_sub(age), age, false)
+                {
+                    reported.push(event);
+                } else {
+                    merged += 1;
+                }
+            }
+        }
+        self.stats.contacts_merged += merged;
+        self.sim.add_contacts(reported);
+    }
+
+    /// Keeps the contact reports of this tick's frame to `to` until they are answered; returns
+    /// those to send (the queue for `to` full, the rest are given up).
+    pub(super) fn keep_unanswered_contacts(
+        &mut self,
+        to: ClusterId,
+        reports: Vec<ContactReport>,
+        tick: u64,
+    ) -> Vec<ContactReport> {
+        let me = self.config.cluster_id;
+        let retry = self.config.op_retry_ticks.max(1);
+        let mut sent = Vec::with_capacity(reports.len());
+        for report in reports {
+            let key = (me, report.seq);
+            if self.outstanding_contacts.contains(key) {
+                sent.push(report);
+                continue;
+            }
             self.stats.contacts_sent += 1;
+            let pending = Unanswered {
+                sent: report,
+                to,
+                born_tick: tick as i64 - i64::from(report.age_ticks),
+                due_tick: tick + retry,
+                returned: false,
+            };
+            if self.outstanding_contacts.keep(key, pending) {
+                sent.push(report);
+            } else {
+                self.stats.contacts_given_up += 1;
+            }
+        }
+        sent
+    }
+
+    /// Sends again the unanswered contact reports that are due, each to the cluster this one
+    /// now knows to own the pair's other entity; gives up on those past answering, and on
+    /// those whose pair has no owner left to tell.
+    pub(super) fn resend_due_contacts(&mut self, tick: u64) {
+        let me = self.config.cluster_id;
+        for (key, mut pending) in self.outstanding_contacts.take_due(tick) {
+            let age = pending.age(tick);
+            if self.past_answering(age) {
+                self.stats.contacts_given_up += 1;
+                continue;
+            }
+            let report = pending.sent;
+            let owners: Vec<ClusterId> = [report.a, report.b]
+                .iter()
+                .filter_map(|&id| self.sim.info(id).map(|info| info.owner))
+                .filter(|&owner| owner != me && self.config.neighbours.contains(&owner))
+                .collect();
+            let alive = |c: &ClusterId| {
+                !self
+                    .neighbour_status(*c)
+                    .is_some_and(NeighbourStatus::is_gone)
+            };
+            let to = if owners.contains(&pending.to) && alive(&pending.to) {
+                Some(pending.to)
+            } else if let Some(&owner) = owners.iter().find(|c| alive(c)) {
+                Some(owner)
+            } else if !owners.is_empty() {
+                // Its owner is taken for dead: wait for the adopter's frames to name it.
+                None
+            } else {
+                self.stats.contacts_given_up += 1;
+                continue;
+            };
+            pending.due_tick = tick + self.config.op_retry_ticks.max(1);
+            if let Some(to) = to {
+                pending.to = to;
+                self.outgoing_contacts
+                    .entry(to)
+                    .or_default()
+                    .push(ContactReport {
+                        age_ticks: u32::try_from(age).unwrap_or(u32::MAX),
+                        ..report
+                    });
+                self.stats.contacts_resent += 1;
+            }
+            if !self.outstanding_contacts.keep(key, pending) {
+                self.stats.contacts_given_up += 1;
+            }
         }
     }
 

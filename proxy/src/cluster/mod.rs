@@ -7,7 +7,7 @@ use seam_sim::wire::{
     self, ClusterId, ContactReport, EntityId, EntityState, IdMap, OpAck, PhysicsEventsFrame,
     ReplicationEncoder, ReplicationFrame, RoutedOp, SeamImpulseReport,
 };
-use seam_sim::{BodyRole, ClusterSim, ContactEvent, PhysicsHandle, SimConfig, TickContext};
+use seam_sim::{BodyRole, ClusterSim, PhysicsHandle, SimConfig, TickContext};
 use seam_transport::Transport;
 
 use crate::authority::{AuthorityMode, AuthorityPolicy, Spatial};
@@ -71,10 +71,12 @@ pub struct Cluster {
     outgoing_ops: IdMap<ClusterId, Vec<RoutedOp>>,
     /// Answers to the ops received, by their sender, for this tick's publish.
     outgoing_acks: IdMap<ClusterId, Vec<OpAck>>,
-    /// The number the next op issued here gets (see `crate::delivery`).
+    /// The number the next op issued (or contact reported) here gets (see `crate::delivery`).
     next_op_seq: u64,
     /// Ops sent and not answered yet (see `crate::delivery`).
-    outstanding: Outstanding,
+    outstanding: Outstanding<RoutedOp>,
+    /// Contact reports sent and not answered yet.
+    outstanding_contacts: Outstanding<ContactReport>,
     /// Op numbers settled here, per issuer (see `crate::delivery`).
     settled: Settled,
     /// Stage times of the routed ops applied here, until the caller takes them.
@@ -200,6 +202,7 @@ impl Cluster {
             outgoing_acks: IdMap::default(),
             next_op_seq: first_op_seq(),
             outstanding: Outstanding::default(),
+            outstanding_contacts: Outstanding::default(),
             settled: Settled::default(),
             op_timings: Vec::new(),
             handoff_log: Vec::new(),
@@ -266,6 +269,11 @@ impl Cluster {
     /// `ClusterConfig::op_retry_ticks`).
     pub fn ops_unanswered(&self) -> usize {
         self.outstanding.len()
+    }
+
+    /// Contact reports this cluster has sent and not yet had answered; sent again like ops.
+    pub fn contacts_unanswered(&self) -> usize {
+        self.outstanding_contacts.len()
     }
 
     /// The hand-offs this cluster took and gave since the last call, in order (at most
@@ -554,38 +562,7 @@ impl Cluster {
                 .filter(|(frame, _)| frame.leaving)
                 .map(|(frame, _)| frame.from),
         );
-        // Each contact once per side (see `crate::contact_merge`): this world's own events,
-        // then the neighbours' reports.
-        let tick = self.sim.tick();
-        let merge = &mut self.contact_merge;
-        merge.expire(tick);
-        let mut merged = 0;
-        self.sim.retain_contacts(|c| {
-            let new = merge.is_new(c, tick, true);
-            merged += u64::from(!new);
-            new
-        });
-        let mut reported = Vec::new();
-        for (frame, _) in &frames.events {
-            for c in &frame.contacts {
-                self.stats.contacts_received += 1;
-                let event = ContactEvent {
-                    a: c.a,
-                    b: c.b,
-                    started: c.started,
-                    impulse: c.impulse,
-                    normal: c.normal,
-                    reported_by: Some(frame.from),
-                };
-                if merge.is_new(&event, tick, false) {
-                    reported.push(event);
-                } else {
-                    merged += 1;
-                }
-            }
-        }
-        self.stats.contacts_merged += merged;
-        self.sim.add_contacts(reported);
+        self.surface_contacts(&frames.events);
 
         // User code; writes on remote-owned entities go to the outbox.
         let mut outbox = Outbox {
@@ -608,6 +585,7 @@ impl Cluster {
         self.take_acks(&frames.events, tick);
         self.apply_routed_ops(&frames.events, tick);
         self.resend_due(tick);
+        self.resend_due_contacts(tick);
 
         if self.config.coupling && self.config.proxy_mode != ProxyMode::Custom {
             let changes = self.sim.couple_proxies(self.proxy_role());

@@ -197,17 +197,26 @@ impl Cluster {
                 .map(std::mem::take)
                 .unwrap_or_default();
             let mut ops = self.keep_unanswered(neighbour, ops, tick);
+            let contacts = self
+                .outgoing_contacts
+                .get_mut(&neighbour)
+                .map(std::mem::take)
+                .unwrap_or_default();
+            let mut contacts = self.keep_unanswered_contacts(neighbour, contacts, tick);
             if self
                 .neighbour_status(neighbour)
                 .is_some_and(NeighbourStatus::is_gone)
             {
-                // Taken for dead: its entities are being adopted, so writes queued for it
-                // (before it was) are kept to go, next tick on, to whoever owns them then. The
-                // empty frame still tells it, should it be alive after all, that this cluster
-                // is.
+                // Taken for dead: its entities are being adopted, so writes and contact reports
+                // queued for it (before it was) are kept to go, next tick on, to whoever owns
+                // their entities then. The empty frame still tells it, should it be alive
+                // after all, that this cluster is.
                 for op in ops.drain(..) {
                     self.outstanding
                         .due_at((op.issuer.unwrap_or(me), op.seq), tick + 1);
+                }
+                for report in contacts.drain(..) {
+                    self.outstanding_contacts.due_at((me, report.seq), tick + 1);
                 }
             }
             let frame = PhysicsEventsFrame {
@@ -220,11 +229,7 @@ impl Cluster {
                     .get_mut(&neighbour)
                     .map(std::mem::take)
                     .unwrap_or_default(),
-                contacts: self
-                    .outgoing_contacts
-                    .get_mut(&neighbour)
-                    .map(std::mem::take)
-                    .unwrap_or_default(),
+                contacts,
                 impulses: self
                     .outgoing_impulses
                     .get_mut(&neighbour)

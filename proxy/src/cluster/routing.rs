@@ -68,32 +68,47 @@ impl Cluster {
                     if ack.done {
                         if self.outstanding.take(key).is_some() {
                             self.stats.ops_acked += 1;
+                        } else if self.outstanding_contacts.take(key).is_some() {
+                            self.stats.contacts_acked += 1;
                         }
                     } else {
                         self.outstanding.returned(key, tick);
+                        self.outstanding_contacts.returned(key, tick);
                     }
                 }
             }
         }
     }
 
-    /// Answers an op received from `to` in its next events frame: the answer to the op before
-    /// it grows when the two are consecutive numbers of one issuer, answered alike.
+    /// Answers an op received from `to` in its next events frame.
     fn answer(&mut self, to: ClusterId, routed: &RoutedOp, done: bool) {
+        self.answer_number(to, routed.seq, routed.issuer, done);
+    }
+
+    /// Answers number `seq` of `issuer` (`None`: `to` itself) received from `to`, an op or a
+    /// contact report, in its next events frame: the answer to the number before it grows
+    /// when the two are consecutive numbers of one issuer, answered alike.
+    pub(super) fn answer_number(
+        &mut self,
+        to: ClusterId,
+        seq: u64,
+        issuer: Option<ClusterId>,
+        done: bool,
+    ) {
         let acks = self.outgoing_acks.entry(to).or_default();
         if let Some(last) = acks.last_mut()
-            && last.issuer == routed.issuer
+            && last.issuer == issuer
             && last.done == done
             && last.more < u16::MAX
-            && last.seq.checked_add(u64::from(last.more) + 1) == Some(routed.seq)
+            && last.seq.checked_add(u64::from(last.more) + 1) == Some(seq)
         {
             last.more += 1;
             return;
         }
         acks.push(OpAck {
-            seq: routed.seq,
+            seq,
             more: 0,
-            issuer: routed.issuer,
+            issuer,
             done,
         });
     }
@@ -168,8 +183,8 @@ impl Cluster {
         }
     }
 
-    /// Marks an op settled here.
-    fn settle(&mut self, key: OpKey) {
+    /// Marks an op (or contact report) settled here.
+    pub(super) fn settle(&mut self, key: OpKey) {
         let forgotten = self.settled.forgotten;
         self.settled.settle(key);
         self.stats.op_windows_forgotten += self.settled.forgotten - forgotten;
@@ -209,16 +224,11 @@ impl Cluster {
         let me = self.config.cluster_id;
         for (key, mut pending) in self.outstanding.take_due(tick) {
             let age = pending.age(tick);
-            // Past its age limit any owner drops it as stale — unless it settled it already
-            // (its answer lost, say to an outage): so it is still sent, to be answered either
-            // way, for as long as an owner may stay silent and still be alive. Only then, with
-            // no answer, is it given up.
-            let answer_for = self.config.neighbour_timeout_ticks.max(1) * 2;
-            if age >= self.config.max_op_age_ticks + answer_for {
+            if self.past_answering(age) {
                 self.stats.ops_expired += 1;
                 continue;
             }
-            let target = pending.op.op.target();
+            let target = pending.sent.op.target();
             let owner = self.sim.info(target).map(|info| info.owner);
             let to = match owner {
                 Some(owner) if owner == me => {
@@ -233,7 +243,7 @@ impl Cluster {
                             published_ns: monotonic_ns(),
                             received_ns: monotonic_ns(),
                         };
-                        let routed = pending.op;
+                        let routed = pending.sent;
                         self.apply_here(key, &routed, &arrival, tick);
                     } else {
                         self.stats.ops_repeated += 1;
@@ -267,7 +277,7 @@ impl Cluster {
                 self.outgoing_ops.entry(to).or_default().push(RoutedOp {
                     issuer: (key.0 != me).then_some(key.0),
                     age_ticks: u32::try_from(age).unwrap_or(u32::MAX),
-                    ..pending.op
+                    ..pending.sent
                 });
                 self.stats.ops_resent += 1;
             }
@@ -275,6 +285,15 @@ impl Cluster {
                 self.stats.ops_dropped_queue_full += 1;
             }
         }
+    }
+
+    /// Whether an op (or contact report) unanswered at `age` is given up. Past its age limit
+    /// any owner drops it as stale — unless it settled it already (its answer lost, say to an
+    /// outage): so it is still sent, to be answered either way, for as long as an owner may
+    /// stay silent and still be alive. Only then, with no answer, is it given up.
+    pub(super) fn past_answering(&self, age: u64) -> bool {
+        let answer_for = self.config.neighbour_timeout_ticks.max(1) * 2;
+        age >= self.config.max_op_age_ticks + answer_for
     }
 
     /// Keeps the ops of this tick's frame to `to` until they are answered: those sent for the
@@ -296,7 +315,7 @@ impl Cluster {
                 continue;
             }
             let pending = Unanswered {
-                op,
+                sent: op,
                 to,
                 born_tick: tick as i64 - i64::from(op.age_ticks),
                 due_tick: tick + retry,

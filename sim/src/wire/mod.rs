@@ -21,7 +21,7 @@ use serde::de::{DeserializeOwned, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
 
 /// The format version every frame starts with.
-pub const WIRE_VERSION: u8 = 6;
+pub const WIRE_VERSION: u8 = 7;
 
 /// A collision shape, as small as a proxy needs.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -253,8 +253,9 @@ impl RoutedOp {
     }
 }
 
-/// A receiver's answer to routed ops, in its next events frame to their sender: one answer for
-/// a run of consecutive numbers of one issuer (a batch of ops is answered in a few bytes).
+/// A receiver's answer to routed ops and contact reports, in its next events frame to their
+/// sender: one answer for a run of consecutive numbers of one issuer (a batch of ops is
+/// answered in a few bytes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct OpAck {
     /// The first op's number ([`RoutedOp::seq`]).
@@ -269,9 +270,16 @@ pub struct OpAck {
     pub done: bool,
 }
 
-/// A contact that started or stopped between two entities.
+/// A contact that started or stopped between two entities, reported to the owner of the
+/// entity the reporter does not own. Delivered like a routed op: numbered, answered
+/// ([`OpAck`]), sent again until answered, surfaced once.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ContactReport {
+    /// The reporter's number for it, from the counter that numbers its ops (a receiver
+    /// surfaces each number once and answers it by that number).
+    pub seq: u64,
+    /// Ticks since the reporter's step saw it, on the reporter's clock, before this send.
+    pub age_ticks: u32,
     /// One entity of the pair.
     pub a: EntityId,
     /// The other.
@@ -327,7 +335,7 @@ pub struct PhysicsEventsFrame {
     /// Writes on entities the destination owns.
     #[serde(deserialize_with = "grow_as_decoded")]
     pub ops: Vec<RoutedOp>,
-    /// Answers to the ops the destination sent the sender.
+    /// Answers to the ops and contact reports the destination sent the sender.
     #[serde(deserialize_with = "grow_as_decoded")]
     pub acks: Vec<OpAck>,
     /// Contacts between the sender's bodies and its proxies of the destination's entities.
