@@ -312,8 +312,10 @@ fn report(a: EntityId, b: EntityId, started: bool, seq: u64, age_ticks: u32) -> 
 
 /// The test plays B's neighbour A by hand: it reports a contact start, the same report again
 /// in a later frame (a resend, aged past the window two copies merge in), a report too old,
-/// and the contact's stop. B's game code sees the start and the stop, once each; B counts the
-/// repeat and the stale report, and answers every report.
+/// and the contact's stop; then, 10 ticks on, a late report (aged 12) of a contact B's own
+/// world saw start in its first step. B's game code sees the start and the stop, once each,
+/// and not the late copy of what it saw itself; B counts the repeat and the stale report,
+/// and answers every report.
 fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) {
     let (a, b) = (ClusterId::random(), ClusterId::random());
     let mut config = ClusterConfig::new(b, vec![a], &ctx.url());
@@ -321,20 +323,24 @@ fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) 
     config.authority = AuthorityMode::Scripted;
     let mut cluster = Cluster::new(config).expect("cluster B");
     let ball = ball_at(1.0, b);
-    cluster
-        .spawn_owned(&ball, BodyRole::Dynamic)
-        .expect("spawn");
+    // Two of B's own balls overlapping by 10 cm, far off: B's world sees them start touching.
+    let (near, far) = (ball_at(10.0, b), ball_at(10.9, b));
+    for body in [&ball, &near, &far] {
+        cluster.spawn_owned(body, BodyRole::Dynamic).expect("spawn");
+    }
     let mut injector = ctx.open();
     injector.subscribe(&physics_events(a)).expect("subscribe");
     let to_b = physics_events(b);
     let (theirs, other) = (EntityId::random(), EntityId::random());
     let max_age = cluster.config().max_op_age_ticks as u32;
-    let reports = [
-        report(theirs, ball.id, true, SEQ, 0),
-        report(theirs, ball.id, true, SEQ, 12),
-        report(other, ball.id, true, SEQ + 1, max_age),
-        report(theirs, ball.id, false, SEQ + 2, 0),
+    let mut reports = vec![
+        Some(report(theirs, ball.id, true, SEQ, 0)),
+        Some(report(theirs, ball.id, true, SEQ, 12)),
+        Some(report(other, ball.id, true, SEQ + 1, max_age)),
+        Some(report(theirs, ball.id, false, SEQ + 2, 0)),
     ];
+    reports.extend([None; 10]);
+    reports.push(Some(report(far.id, near.id, true, SEQ + 3, 12)));
     let mut answers: Vec<OpAck> = Vec::new();
     let mut seen = Vec::new();
     for (tick, report) in (1..).zip(reports) {
@@ -344,7 +350,7 @@ fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) 
             published_ns: 0,
             ops: Vec::new(),
             acks: Vec::new(),
-            contacts: vec![report],
+            contacts: report.into_iter().collect(),
             impulses: Vec::new(),
             leaving: false,
         });
@@ -380,9 +386,10 @@ fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) 
         (
             s.contacts_received,
             s.contacts_repeated,
-            s.contacts_dropped_stale
+            s.contacts_dropped_stale,
+            s.contacts_merged
         ),
-        (4, 1, 1),
+        (5, 1, 1, 1),
         "{s:?}"
     );
     let done = |seq: u64| {
@@ -392,7 +399,11 @@ fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) 
             .count()
     };
     assert_eq!(done(SEQ), 2, "the report and its resend: {answers:?}");
-    assert_eq!((done(SEQ + 1), done(SEQ + 2)), (1, 1), "{answers:?}");
+    assert_eq!(
+        (done(SEQ + 1), done(SEQ + 2), done(SEQ + 3)),
+        (1, 1, 1),
+        "{answers:?}"
+    );
 }
 
 /// West [-30, 0] and east [0, 30] with a world map; east owns a ball at x = 1. West writes to
