@@ -49,9 +49,13 @@ pub struct ClusterStats {
     /// Contact reports answered by their receiver, and forgotten.
     pub contacts_acked: u64,
     /// Contact reports given up by their sender: unanswered past `max_op_age_ticks` and the
-    /// time an owner may stay silent, the other entity gone from this world, or the queue for
-    /// its owner full.
+    /// time an owner may stay silent, out of this world's view with the last receiver gone,
+    /// or the queue for the owner full.
     pub contacts_given_up: u64,
+    /// Contact reports forgotten unanswered because both bodies became this cluster's own
+    /// (adopted from a dead neighbour, or handed here): this cluster's game code saw the
+    /// contact itself, and no other owner is left to tell.
+    pub contacts_own_now: u64,
     /// Contact reports received from neighbours, repeats included.
     pub contacts_received: u64,
     /// Of those, reports surfaced (or merged) here before: answered, not surfaced again.

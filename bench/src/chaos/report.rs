@@ -319,7 +319,7 @@ pub struct ChaosReport {
     pub ops: OpCounts,
     /// Contact reports: `routed` counts those sent, `applied` those surfaced (or merged with
     /// the receiver's own copy), `dropped_stale` those a receiver found too old,
-    /// `dropped_gone` those their sender gave up on.
+    /// `dropped_gone` those their sender gave up on or forgot because the pair became its own.
     pub contacts: OpCounts,
     /// Deaths, adoptions, outages.
     pub recovery: RecoveryCounts,
@@ -416,7 +416,7 @@ impl ChaosReport {
                 .contacts_received
                 .saturating_sub(s.contacts_repeated + s.contacts_dropped_stale),
             dropped_stale: s.contacts_dropped_stale,
-            dropped_gone: s.contacts_given_up,
+            dropped_gone: s.contacts_given_up + s.contacts_own_now,
             resent: s.contacts_resent,
             repeated: s.contacts_repeated,
             unanswered_at_end: inputs.reports.iter().map(|r| r.contacts_unanswered).sum(),
@@ -613,7 +613,8 @@ pub fn table(r: &ChaosReport) -> String {
     );
     let c = &r.contacts;
     out += &format!(
-        "contact reports: {} sent, {} surfaced or merged; {} too old, {} given up by their sender; \
+        "contact reports: {} sent, {} surfaced or merged; {} too old, {} given up or the pair \
+         the sender's own since; \
          {} unanswered at the end, {} with a killed sender; {} lost{}, {} settled beyond sent; \
          {} resent, {} repeats not surfaced\n",
         c.routed,

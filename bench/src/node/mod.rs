@@ -513,6 +513,6 @@ fn op_counts(s: &seam_proxy::ClusterStats) -> [u64; 7] {
         s.ops_forwarded,
         s.contacts_sent,
         s.contacts_received,
-        s.contacts_acked + s.contacts_given_up,
+        s.contacts_acked + s.contacts_given_up + s.contacts_own_now,
     ]
 }

@@ -148,8 +148,10 @@ impl Cluster {
     }
 
     /// Sends again the unanswered contact reports that are due, each to the cluster this one
-    /// now knows to own the pair's other entity; gives up on those past answering, and on
-    /// those whose pair has no owner left to tell.
+    /// now knows to own the pair's other entity (or, if this world no longer models it, to
+    /// the last receiver); gives up on those past answering, and on those with nobody left to
+    /// tell (out of this world's view with its last receiver gone), and forgets those whose
+    /// pair is this cluster's own now.
     pub(super) fn resend_due_contacts(&mut self, tick: u64) {
         let me = self.config.cluster_id;
         for (key, mut pending) in self.outstanding_contacts.take_due(tick) {
@@ -169,6 +171,9 @@ impl Cluster {
                     .neighbour_status(*c)
                     .is_some_and(NeighbourStatus::is_gone)
             };
+            let unknown = [report.a, report.b]
+                .iter()
+                .any(|&id| self.sim.info(id).is_none());
             let to = if owners.contains(&pending.to) && alive(&pending.to) {
                 Some(pending.to)
             } else if let Some(&owner) = owners.iter().find(|c| alive(c)) {
@@ -176,8 +181,16 @@ impl Cluster {
             } else if !owners.is_empty() {
                 // Its owner is taken for dead: wait for the adopter's frames to name it.
                 None
-            } else {
+            } else if unknown && alive(&pending.to) {
+                // Out of this world's view since: the last receiver still knows it.
+                Some(pending.to)
+            } else if unknown {
                 self.stats.contacts_given_up += 1;
+                continue;
+            } else {
+                // Both bodies are this cluster's now (adopted, or handed here): its own game
+                // code saw the contact, and there is no other owner to tell.
+                self.stats.contacts_own_now += 1;
                 continue;
             };
             pending.due_tick = tick + self.config.op_retry_ticks.max(1);
