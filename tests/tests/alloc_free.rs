@@ -72,7 +72,8 @@ fn steady_state_adds_no_allocation<S: iceoryx2::service::Service>(backend: Backe
     for channel in &channels {
         subscriber.subscribe(channel).expect("subscribe");
     }
-    let frame = [7u8; 512];
+    // Opaque bytes whose first is no wire version, so the reader below passes over them.
+    let frame = [0xeeu8; 512];
     // A replication frame of 64 states as a cluster publishes it: its tables built in a
     // reused encoder, its records written straight into the loaned buffer.
     let owner = ClusterId::from_u128(1);
