@@ -9,7 +9,7 @@ use seam_proxy::{AuthorityMode, Cluster, ClusterConfig, Region, WorldCluster, ph
 use seam_sim::BodyRole;
 use seam_sim::wire::{
     self, ClusterId, ContactReport, EntityId, EntityState, OpAck, PhysicsEventsFrame, PhysicsOp,
-    RoutedOp,
+    ReplicationFrame, RoutedOp,
 };
 use seam_tests::{HandClock, TestContext, ball_at};
 
@@ -313,9 +313,9 @@ fn report(a: EntityId, b: EntityId, started: bool, seq: u64, age_ticks: u32) -> 
 /// The test plays B's neighbour A by hand: it reports a contact start, the same report again
 /// in a later frame (a resend, aged past the window two copies merge in), a report too old,
 /// and the contact's stop; then, 10 ticks on, a late report (aged 12) of a contact B's own
-/// world saw start in its first step. B's game code sees the start and the stop, once each,
-/// and not the late copy of what it saw itself; B counts the repeat and the stale report,
-/// and answers every report.
+/// world saw start in its first steps (B's ball against its proxy of a ball A replicates).
+/// B's game code sees the start and the stop, once each, and not the late copy of what it saw
+/// itself; B counts the repeat and the stale report, and answers every report.
 fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) {
     let (a, b) = (ClusterId::random(), ClusterId::random());
     let mut config = ClusterConfig::new(b, vec![a], &ctx.url());
@@ -323,9 +323,10 @@ fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) 
     config.authority = AuthorityMode::Scripted;
     let mut cluster = Cluster::new(config).expect("cluster B");
     let ball = ball_at(1.0, b);
-    // Two of B's own balls overlapping by 10 cm, far off: B's world sees them start touching.
-    let (near, far) = (ball_at(10.0, b), ball_at(10.9, b));
-    for body in [&ball, &near, &far] {
+    // A ball of B's and one of A's overlapping by 10 cm, far off: B's world sees its ball
+    // start touching its proxy of A's.
+    let (near, far) = (ball_at(10.0, b), ball_at(10.9, a));
+    for body in [&ball, &near] {
         cluster.spawn_owned(body, BodyRole::Dynamic).expect("spawn");
     }
     let mut injector = ctx.open();
@@ -344,6 +345,17 @@ fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) 
     let mut answers: Vec<OpAck> = Vec::new();
     let mut seen = Vec::new();
     for (tick, report) in (1..).zip(reports) {
+        let replication = ReplicationFrame {
+            from: a,
+            tick,
+            states: vec![far],
+        };
+        let bytes = replication
+            .encode(wire::StateEncoding::Exact)
+            .expect("encodes");
+        injector
+            .publish(&seam_proxy::replication(a), &bytes)
+            .expect("publish");
         let bytes = wire::encode(&PhysicsEventsFrame {
             from: a,
             tick,

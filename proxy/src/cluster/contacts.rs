@@ -57,15 +57,33 @@ impl Cluster {
 
     /// Surfaces each contact once per side (see `crate::contact_merge`): this world's own of
     /// the last step, then the neighbours' reports. Each report's number is surfaced once; a
-    /// report older than `max_op_age_ticks` is dropped. Every report is answered.
+    /// report older than `max_op_age_ticks` is dropped. Every report is answered. Only local
+    /// contacts with a neighbour's entity are remembered to merge: a report names one, and
+    /// the rest (among this cluster's bodies, or with scenery) have no twin to meet.
     pub(super) fn surface_contacts(&mut self, events: &[(PhysicsEventsFrame, u64)]) {
         let tick = self.sim.tick();
         let max_age = self.config.max_op_age_ticks;
+        self.contact_merge.expire(tick, max_age);
+        let neighbours = &self.config.neighbours;
+        let with_neighbour: Vec<bool> = self
+            .sim
+            .contacts()
+            .iter()
+            .map(|c| {
+                [c.a, c.b].iter().any(|&id| {
+                    self.sim
+                        .info(id)
+                        .is_some_and(|info| neighbours.contains(&info.owner))
+                })
+            })
+            .collect();
         let merge = &mut self.contact_merge;
-        merge.expire(tick, max_age);
         let mut merged = 0;
+        let mut index = 0;
         self.sim.retain_contacts(|c| {
-            let new = merge.is_new(c, tick, 0, true);
+            let crosses = with_neighbour[index];
+            index += 1;
+            let new = !crosses || merge.is_new(c, tick, 0, true);
             merged += u64::from(!new);
             new
         });
