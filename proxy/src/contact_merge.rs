@@ -16,7 +16,8 @@
 //! reporter's hands (`ContactReport::age_ticks`) and the tick it arrives (this cluster may have
 //! stalled meanwhile, its clock standing while the reporter's ran). So a report sent again
 //! after a lost frame, or read late after a stall, still meets the local copy it repeats; of
-//! several, the one nearest the report's earliest moment.
+//! several, the one nearest the report's earliest moment. The caller passes only local
+//! contacts that can have a twin (with a neighbour's entity).
 
 use std::collections::HashMap;
 
