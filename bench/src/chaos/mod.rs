@@ -15,8 +15,11 @@
 //! fault starts in the last 9 s, so the run ends calm.
 //!
 //! Between faults, every 250 ms, bursts of garbage and forged frames go into every channel
-//! ([`Injector`]); none in the second before a fault, so every injected frame has been counted by
-//! a pod that is still there to report it. A fault is *survived* when every pod has shown
+//! ([`Injector`]); none in the second before a fault, and a due fault waits (up to 2 s) until the
+//! pods' latest counters account for every injected frame delivered so far, so none is still in
+//! a socket or in the server when a pod is killed or stopped or Redis restarted. Should some be
+//! unaccounted for when the fault fires anyway, the report names the faults between which they
+//! went unseen. A fault is *survived* when every pod has shown
 //! progress again within 5 s of its end. At the end: faults by kind, injected frames against
 //! the pods' refusal counters, entities lost or owned twice, ops and frames dropped by reason,
 //! adoption, outages, panics, and each pod's memory after warm-up.
@@ -112,6 +115,8 @@ const STOPPED_FOR: Duration = Duration::from_secs(1);
 const REDIS_DOWN_FOR: Duration = Duration::from_secs(1);
 const BURST_EVERY: Duration = Duration::from_millis(250);
 const QUIET_BEFORE_FAULT: Duration = Duration::from_secs(1);
+/// How long a due fault waits for the pods to count every injected frame delivered.
+const COUNTED_WITHIN: Duration = Duration::from_secs(2);
 const SURVIVE_WITHIN: Duration = Duration::from_secs(5);
 /// Time the run may take beyond its planned length before its pods are killed and it fails:
 /// pods catch up after a stop on their shared schedule, so a healthy run ends within seconds.
@@ -251,20 +256,23 @@ pub fn run(
     let mut phase = Phase::Calm(first_fault);
     let mut faults = FaultCounts::default();
     let mut fault_log: Vec<crate::record::Fault> = Vec::new();
-    let mut log_fault = |stream: Option<usize>, what: String| {
-        let since = monotonic_ns().saturating_sub(start_at) as f64;
-        fault_log.push(crate::record::Fault {
-            tick: (since * plan.rate / 1e9) as u64,
-            stream: stream.map(|s| s as u16),
-            what,
-        });
-    };
+    let log_fault =
+        |fault_log: &mut Vec<crate::record::Fault>, stream: Option<usize>, what: String| {
+            let since = monotonic_ns().saturating_sub(start_at) as f64;
+            fault_log.push(crate::record::Fault {
+                tick: (since * plan.rate / 1e9) as u64,
+                stream: stream.map(|s| s as u16),
+                what,
+            });
+        };
     let mut pending_survival: Option<(Fault, Instant)> = None;
     let mut dead_incarnations: Vec<NodeProgress> = Vec::new();
     let mut failed_faults: Vec<String> = Vec::new();
     let mut next_burst = Instant::now();
     let mut last_shown = Instant::now();
     let mut problems: Vec<String> = Vec::new();
+    let mut accounting_slips: Vec<String> = Vec::new();
+    let mut unseen_before = (0i64, 0i64);
 
     let take =
         |pods: &mut Vec<PodState>, (index, line): PodLine, problems: &mut Vec<String>| match line {
@@ -357,7 +365,39 @@ pub fn run(
                 } else {
                     injector.observe()?;
                 }
-                if now >= due && now < last_fault_by && pending_survival.is_none() && all_running {
+                let fault_due =
+                    now >= due && now < last_fault_by && pending_survival.is_none() && all_running;
+                // A fault waits (up to `COUNTED_WITHIN`) until every injected frame delivered
+                // so far is counted by a pod: one still in a pod's socket when it is killed or
+                // stopped, or in the server when it is restarted, would be lost by the fault,
+                // not by seam. What is still unseen when it fires is noted where it went.
+                let unseen = if fault_due {
+                    report::injected_unseen(
+                        plan.key.is_some(),
+                        &injector.counts(),
+                        pods.iter()
+                            .filter_map(|p| p.latest.as_ref())
+                            .map(|(_, p)| p)
+                            .chain(&dead_incarnations)
+                            .map(|p| (&p.cluster_stats, &p.transport_stats)),
+                    )
+                } else {
+                    unseen_before
+                };
+                if fault_due && (unseen == unseen_before || now >= due + COUNTED_WITHIN) {
+                    if unseen != unseen_before {
+                        let last_fault = fault_log.last().map_or("the start".into(), |f| {
+                            format!("{} (tick {})", f.what, f.tick)
+                        });
+                        accounting_slips.push(format!(
+                            "{:+} garbage, {:+} forged deliveries between {last_fault} and \
+                             {:.1} s",
+                            unseen.0 - unseen_before.0,
+                            unseen.1 - unseen_before.1,
+                            launched.elapsed().as_secs_f64()
+                        ));
+                        unseen_before = unseen;
+                    }
                     let mut fault = kinds[0];
                     kinds.rotate_left(1);
                     if fault == Fault::Kill && now >= kills_until {
@@ -394,7 +434,11 @@ pub fn run(
                                 dead_incarnations.push(last);
                             }
                             faults.kill += 1;
-                            log_fault(Some(index), format!("pod {} killed", pods[index].name));
+                            log_fault(
+                                &mut fault_log,
+                                Some(index),
+                                format!("pod {} killed", pods[index].name),
+                            );
                             Phase::Killed(index, now + KILLED_FOR)
                         }
                         Fault::Stop => {
@@ -402,7 +446,11 @@ pub fn run(
                                 signal(child, Signal::STOP);
                             }
                             faults.stop += 1;
-                            log_fault(Some(index), format!("pod {} stopped", pods[index].name));
+                            log_fault(
+                                &mut fault_log,
+                                Some(index),
+                                format!("pod {} stopped", pods[index].name),
+                            );
                             Phase::Stopped(index, now + STOPPED_FOR)
                         }
                         Fault::RestartRedis => {
@@ -410,7 +458,7 @@ pub fn run(
                                 server.kill();
                             }
                             faults.redis_restart += 1;
-                            log_fault(None, "Redis server killed".into());
+                            log_fault(&mut fault_log, None, "Redis server killed".into());
                             Phase::RedisDown(now + REDIS_DOWN_FOR)
                         }
                     }
@@ -420,7 +468,11 @@ pub fn run(
             }
             Phase::Killed(index, until) if now >= until => {
                 launch(&mut pods, &mut readers, index, true)?;
-                log_fault(Some(index), format!("pod {} restarted", pods[index].name));
+                log_fault(
+                    &mut fault_log,
+                    Some(index),
+                    format!("pod {} restarted", pods[index].name),
+                );
                 pending_survival = Some((Fault::Kill, now));
                 Phase::Calm(now + plan.fault_every)
             }
@@ -428,7 +480,11 @@ pub fn run(
                 if let Some(child) = &pods[index].child {
                     signal(child, Signal::CONT);
                 }
-                log_fault(Some(index), format!("pod {} continued", pods[index].name));
+                log_fault(
+                    &mut fault_log,
+                    Some(index),
+                    format!("pod {} continued", pods[index].name),
+                );
                 pending_survival = Some((Fault::Stop, now));
                 Phase::Calm(now + plan.fault_every)
             }
@@ -436,7 +492,7 @@ pub fn run(
                 if let Some(server) = &mut redis {
                     server.restart()?;
                 }
-                log_fault(None, "Redis server restarted".into());
+                log_fault(&mut fault_log, None, "Redis server restarted".into());
                 pending_survival = Some((Fault::RestartRedis, now));
                 Phase::Calm(now + plan.fault_every)
             }
@@ -511,6 +567,7 @@ pub fn run(
             problems,
             memory,
             fault_log,
+            accounting_slips,
         },
     ))
 }

@@ -335,6 +335,10 @@ pub struct ChaosReport {
     pub memory: Vec<MemoryRow>,
     /// Every fault with the tick it came at (what `--record` writes into the recording).
     pub fault_log: Vec<crate::record::Fault>,
+    /// Where injected deliveries went unseen: each time the count of those no pod had counted
+    /// changed between two faults (checked just before each fault, a second after the last
+    /// burst), with the fault before.
+    pub accounting_slips: Vec<String>,
 }
 
 /// What [`ChaosReport::new`] is made from.
@@ -357,42 +361,73 @@ pub(super) struct Inputs<'a> {
     pub problems: Vec<String>,
     pub memory: Vec<MemoryRow>,
     pub fault_log: Vec<crate::record::Fault>,
+    pub accounting_slips: Vec<String>,
+}
+
+/// The counters of pod lives (one pod's several lives, several pods) summed: the cluster's,
+/// the frames', and the transport's outages.
+fn tally<'a>(
+    lives: impl IntoIterator<Item = (&'a ClusterStats, &'a TransportCounts)>,
+) -> (ClusterStats, FrameCounts, RecoveryCounts) {
+    let mut s = ClusterStats::default();
+    let mut frames = FrameCounts::default();
+    let mut recovery = RecoveryCounts::default();
+    for (stats, t) in lives {
+        s += stats;
+        frames.malformed += t.malformed_drops;
+        frames.overflow += t.overflow_drops;
+        frames.untagged += t.untagged_drops;
+        frames.bad_tag += t.bad_tag_drops;
+        recovery.disconnects += t.disconnects;
+        recovery.reconnects += t.reconnects;
+        recovery.down_s += t.down_ns as f64 / 1e9;
+        recovery.dropped_while_down += t.dropped_while_down;
+    }
+    frames.accepted = s.frames_accepted;
+    frames.malformed += s.frames_malformed;
+    frames.wrong_version = s.frames_wrong_version;
+    frames.wrong_sender = s.frames_wrong_sender;
+    frames.replayed = s.frames_replayed;
+    frames.implausible = s.frames_implausible;
+    frames.states_rejected = s.states_rejected;
+    (s, frames, recovery)
+}
+
+/// Injected deliveries no pod has counted yet, by the pods' latest counters: garbage not
+/// refused and forged claims not seen as replays (with a key: deliveries not dropped
+/// untagged). Negative if counted more often than delivered.
+pub(super) fn injected_unseen<'a>(
+    keyed: bool,
+    injected: &InjectCounts,
+    lives: impl IntoIterator<Item = (&'a ClusterStats, &'a TransportCounts)>,
+) -> (i64, i64) {
+    let (_, frames, _) = tally(lives);
+    let refused = (frames.malformed + frames.wrong_version + frames.wrong_sender) as i64;
+    if keyed {
+        let delivered = (injected.garbage_deliveries + injected.forged_deliveries) as i64;
+        (delivered - frames.untagged as i64, 0)
+    } else {
+        (
+            injected.garbage_deliveries as i64 - refused,
+            injected.forged_deliveries as i64 - frames.replayed as i64,
+        )
+    }
 }
 
 impl ChaosReport {
     pub(super) fn new(scene: &Scene, run_id: &str, inputs: Inputs<'_>) -> Self {
-        let incarnations: Vec<(&ClusterStats, &TransportCounts)> = inputs
-            .reports
-            .iter()
-            .map(|r| (&r.cluster_stats, &r.transport_stats))
-            .chain(
-                inputs
-                    .dead_incarnations
-                    .iter()
-                    .map(|p| (&p.cluster_stats, &p.transport_stats)),
-            )
-            .collect();
-        let mut s = ClusterStats::default();
-        let mut frames = FrameCounts::default();
-        let mut recovery = RecoveryCounts::default();
-        for (stats, t) in incarnations {
-            s += stats;
-            frames.malformed += t.malformed_drops;
-            frames.overflow += t.overflow_drops;
-            frames.untagged += t.untagged_drops;
-            frames.bad_tag += t.bad_tag_drops;
-            recovery.disconnects += t.disconnects;
-            recovery.reconnects += t.reconnects;
-            recovery.down_s += t.down_ns as f64 / 1e9;
-            recovery.dropped_while_down += t.dropped_while_down;
-        }
-        frames.accepted = s.frames_accepted;
-        frames.malformed += s.frames_malformed;
-        frames.wrong_version = s.frames_wrong_version;
-        frames.wrong_sender = s.frames_wrong_sender;
-        frames.replayed = s.frames_replayed;
-        frames.implausible = s.frames_implausible;
-        frames.states_rejected = s.states_rejected;
+        let (s, frames, mut recovery) = tally(
+            inputs
+                .reports
+                .iter()
+                .map(|r| (&r.cluster_stats, &r.transport_stats))
+                .chain(
+                    inputs
+                        .dead_incarnations
+                        .iter()
+                        .map(|p| (&p.cluster_stats, &p.transport_stats)),
+                ),
+        );
         let ops = OpCounts {
             routed: s.ops_routed,
             applied: s.ops_applied,
@@ -454,6 +489,7 @@ impl ChaosReport {
             problems: inputs.problems,
             memory: inputs.memory,
             fault_log: inputs.fault_log,
+            accounting_slips: inputs.accounting_slips,
         }
     }
 
@@ -564,6 +600,11 @@ pub fn table(r: &ChaosReport) -> String {
             r.frames.replayed,
             mark(r.frames.replayed == i.forged_deliveries)
         );
+    }
+    if !r.accounted() {
+        for slip in &r.accounting_slips {
+            out += &format!("  unseen: {slip}\n");
+        }
     }
     let o = &r.ownership;
     out += &format!(
@@ -857,6 +898,49 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    #[test]
+    fn injected_frames_are_unseen_until_some_life_counts_them() {
+        let injected = InjectCounts {
+            garbage_frames: 10,
+            garbage_deliveries: 30,
+            forged_frames: 2,
+            forged_deliveries: 6,
+        };
+        let mut alive = ClusterStats {
+            frames_malformed: 10,
+            frames_wrong_version: 5,
+            frames_wrong_sender: 5,
+            frames_replayed: 4,
+            ..ClusterStats::default()
+        };
+        let transport = TransportCounts {
+            malformed_drops: 6,
+            untagged_drops: 33,
+            ..TransportCounts::default()
+        };
+        let killed = ClusterStats {
+            frames_malformed: 3,
+            frames_replayed: 2,
+            ..ClusterStats::default()
+        };
+        let none = TransportCounts::default();
+        // 6 + 10 + 5 + 5 + 3 refused of 30; 4 + 2 replays of 6.
+        assert_eq!(
+            injected_unseen(false, &injected, [(&alive, &transport), (&killed, &none)]),
+            (1, 0)
+        );
+        alive.frames_malformed += 2;
+        assert_eq!(
+            injected_unseen(false, &injected, [(&alive, &transport), (&killed, &none)]),
+            (-1, 0)
+        );
+        // With a key: 36 deliveries, 33 dropped untagged.
+        assert_eq!(
+            injected_unseen(true, &injected, [(&alive, &transport), (&killed, &none)]),
+            (3, 0)
+        );
     }
 
     #[test]
