@@ -15,7 +15,9 @@
 //! fault starts in the last 9 s, so the run ends calm.
 //!
 //! Between faults, every 250 ms, bursts of garbage and forged frames go into every channel
-//! ([`Injector`]); none in the second before a fault, and a due fault waits (up to 2 s) until the
+//! ([`Injector`]); none in the second before a fault or in the second after every pod ran again
+//! after one (a pod stopped mid-command may drop its connection on waking, and with it what
+//! was in its socket), and a due fault waits (up to 2 s) until the
 //! pods' latest counters account for every injected frame delivered so far, so none is still in
 //! a socket or in the server when a pod is killed or stopped or Redis restarted. Should some be
 //! unaccounted for when the fault fires anyway, the report names the faults between which they
@@ -115,6 +117,8 @@ const STOPPED_FOR: Duration = Duration::from_secs(1);
 const REDIS_DOWN_FOR: Duration = Duration::from_secs(1);
 const BURST_EVERY: Duration = Duration::from_millis(250);
 const QUIET_BEFORE_FAULT: Duration = Duration::from_secs(1);
+/// No bursts for this long after every pod ran again after a fault.
+const QUIET_AFTER_FAULT: Duration = Duration::from_secs(1);
 /// How long a due fault waits for the pods to count every injected frame delivered.
 const COUNTED_WITHIN: Duration = Duration::from_secs(2);
 const SURVIVE_WITHIN: Duration = Duration::from_secs(5);
@@ -346,6 +350,9 @@ pub fn run(
             if pods.iter().all(fresh) {
                 faults.survived(fault);
                 pending_survival = None;
+                // A pod that ran again may still drop its connection to the fault (a command
+                // that timed out while it was stopped): no bursts until it has had time to.
+                next_burst = next_burst.max(now + QUIET_AFTER_FAULT);
             } else if now > ended + SURVIVE_WITHIN {
                 failed_faults.push(format!("{fault:?}: not every pod ran again within 5 s"));
                 pending_survival = None;
