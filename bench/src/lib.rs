@@ -30,6 +30,8 @@
 //! - [`scene`] — the scene format (`bench/scenes/*.toml`) and its checks.
 //! - [`wait`] — spinning or sleeping for the next message ([`wait::WaitMode`]).
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.
+//! - [`ledger`] — pods' ledgers of every routed op and contact report by name, and following
+//!   each name across a run's pods to its end (`seam chaos`).
 //! - [`markdown`] — tables as the documents quote them (`--markdown`).
 //! - `benches/` — criterion: `bench_transport` (publish → receive per backend), `bench_sim`
 //!   (a tick against raw Rapier, the wire), `bench_proxy` (tick cost with 0 / 1 000 / 10 000
@@ -41,6 +43,7 @@ pub mod chaos;
 pub mod console;
 pub mod inspect;
 pub mod latency;
+pub mod ledger;
 pub mod markdown;
 pub mod network;
 pub mod node;

@@ -247,6 +247,11 @@ impl<T: Copy> Outstanding<T> {
         }
     }
 
+    /// The names of the ops kept.
+    pub(crate) fn names(&self) -> impl Iterator<Item = OpKey> + '_ {
+        self.ops.keys().copied()
+    }
+
     /// Takes the ops due at `tick` (to be sent again or given up).
     pub(crate) fn take_due(&mut self, tick: u64) -> Vec<(OpKey, Unanswered<T>)> {
         let due: Vec<OpKey> = self

@@ -269,6 +269,7 @@ mod error;
 mod inbox;
 mod interest;
 mod keyframes;
+mod ledger;
 mod lockstep;
 mod prediction;
 mod schedule;
@@ -288,6 +289,7 @@ pub use config::{
 pub use contact_merge::MERGE_WINDOW_TICKS;
 pub use error::ClusterError;
 pub use interest::extent;
+pub use ledger::{Carried, LedgerEntry, LedgerEvent};
 pub use lockstep::lockstep_round;
 pub use schedule::{DRAIN_TICKS_UNSCHEDULED, Due, Schedule};
 pub use settle::HALF_WAITS_TICKS;

@@ -115,6 +115,9 @@ pub struct ClusterStats {
     /// Hand-offs not kept in the log because the caller did not take them (see
     /// `Cluster::take_handoffs`).
     pub handoff_log_dropped: u64,
+    /// Ledger entries not kept because the caller did not take them (see
+    /// `Cluster::take_ledger`).
+    pub ledger_dropped: u64,
     /// Bytes of replication frames published (encoded frames, without transport framing).
     pub replication_bytes: u64,
     /// States the replication frames published stand for: this cluster's own and repeated

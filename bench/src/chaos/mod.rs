@@ -24,13 +24,17 @@
 //! went unseen. A fault is *survived* when every pod has shown
 //! progress again within 5 s of its end. At the end: faults by kind, injected frames against
 //! the pods' refusal counters, entities lost or owned twice, ops and frames dropped by reason,
-//! adoption, outages, panics, and each pod's memory after warm-up.
+//! adoption, outages, panics, and each pod's memory after warm-up. Every pod life writes a
+//! ledger (`seam node --ledger`), and every routed op and contact report is followed by name
+//! across them ([`crate::ledger::follow`]): the sums of the pods' counters cannot tell an op
+//! applied twice, nor one lost behind another counted twice; the names can.
 //!
 //! The run fails (see [`ChaosReport::holds`]) on anything chaos did not cause: a pod found
 //! dead when it was picked for a kill, a pod that ended badly or sent no report, a panic on a
 //! pod's stderr (counted after every reader has read to the end); and when a planned fault
 //! kind was never injected, when the run outlives its deadline (the pods are then killed), when
-//! adoptions and returns do not balance, or when a pod's memory grows past its bound.
+//! adoptions and returns do not balance, when an op or report is lost or applied twice (by the
+//! sums or by name), or when a pod's memory grows past its bound.
 
 mod inject;
 mod report;
@@ -48,6 +52,7 @@ use std::time::{Duration, Instant};
 use rustix::process::{Pid, Signal, kill_process};
 use seam_proxy::monotonic_ns;
 
+use crate::ledger::{Followed, Life};
 use crate::node::{NodeLine, NodeProgress, NodeReport};
 use crate::pod::SceneIds;
 use crate::redis_server::RedisServer;
@@ -109,6 +114,8 @@ struct PodState {
     latest: Option<(Instant, NodeProgress)>,
     /// Memory samples of the current incarnation.
     memory: Vec<MemorySample>,
+    /// The current incarnation's place in the run's lives (its ledger).
+    life: usize,
     report: Option<NodeReport>,
 }
 
@@ -185,6 +192,10 @@ pub fn run(
         record_dir: plan.record_dir.clone(),
         ..RunPlan::new(plan.scene.clone(), pod_transport)
     };
+    // Every life's ledger, in a directory of the run's own: removed at the end, unless they
+    // show an op or report lost or applied twice.
+    let mut ledgers = Ledgers::new(&run_id)?;
+    let mut lives: Vec<Life> = Vec::new();
     let panics = Arc::new(AtomicU64::new(0));
     let (lines, incoming) = mpsc::channel::<PodLine>();
     let start_at = monotonic_ns() + run_plan.start_delay.as_nanos() as u64;
@@ -194,10 +205,12 @@ pub fn run(
     let mut readers: Vec<JoinHandle<()>> = Vec::new();
     let launch = |pods: &mut Vec<PodState>,
                   readers: &mut Vec<JoinHandle<()>>,
+                  lives: &mut Vec<Life>,
                   index: usize,
                   rejoin: bool|
      -> Result<(), String> {
         let pod = &mut pods[index];
+        let ledger = ledgers.path(&pod.name, lives.len());
         let (child, reader) = spawn_pod(
             &run_plan,
             &PodLaunch {
@@ -209,10 +222,16 @@ pub fn run(
                 panics: &panics,
                 transport: None,
                 namespace: None,
+                ledger: Some(&ledger),
             },
             &lines,
         )?;
         readers.push(reader);
+        pod.life = lives.len();
+        lives.push(Life {
+            path: ledger,
+            killed: false,
+        });
         pod.child = Some(child);
         pod.latest = None;
         pod.memory.clear();
@@ -225,9 +244,10 @@ pub fn run(
             child: None,
             latest: None,
             memory: Vec::new(),
+            life: 0,
             report: None,
         });
-        launch(&mut pods, &mut readers, index, false)?;
+        launch(&mut pods, &mut readers, &mut lives, index, false)?;
     }
     let ids = SceneIds::new(&run_id, &scene.name);
     let clusters = scene
@@ -429,6 +449,7 @@ pub fn run(
                                     }
                                 }
                                 let _ = child.wait();
+                                lives[pods[index].life].killed = true;
                             }
                             // The dead incarnation's last counters: read what it wrote.
                             let until = Instant::now() + Duration::from_millis(150);
@@ -474,7 +495,7 @@ pub fn run(
                 }
             }
             Phase::Killed(index, until) if now >= until => {
-                launch(&mut pods, &mut readers, index, true)?;
+                launch(&mut pods, &mut readers, &mut lives, index, true)?;
                 log_fault(
                     &mut fault_log,
                     Some(index),
@@ -550,6 +571,17 @@ pub fn run(
         }
     }
     let reports: Vec<NodeReport> = pods.iter().filter_map(|p| p.report.clone()).collect();
+    let by_name = crate::ledger::follow(&lives).unwrap_or_else(|e| {
+        problems.push(format!("cannot read the pods' ledgers: {e}"));
+        Followed::default()
+    });
+    if !(by_name.ops.holds() && by_name.contacts.holds()) {
+        ledgers.remove = false;
+        problems.push(format!(
+            "the pods' ledgers are kept in {} for tracing",
+            ledgers.dir.display()
+        ));
+    }
     let memory = pods
         .iter()
         .map(|p| MemoryRow::new(&p.name, &p.memory))
@@ -575,6 +607,36 @@ pub fn run(
             memory,
             fault_log,
             accounting_slips,
+            by_name,
         },
     ))
+}
+
+/// The directory of the pods' ledgers: the run's own, removed when the run ends unless
+/// `remove` is cleared.
+struct Ledgers {
+    dir: PathBuf,
+    remove: bool,
+}
+
+impl Ledgers {
+    fn new(run_id: &str) -> Result<Self, String> {
+        let dir = std::env::temp_dir().join(format!("seam-chaos-ledgers-{run_id}"));
+        std::fs::create_dir_all(&dir)
+            .map_err(|e| format!("cannot make {} for the ledgers: {e}", dir.display()))?;
+        Ok(Self { dir, remove: true })
+    }
+
+    /// The ledger of life `life` (numbered across the run) of pod `name`.
+    fn path(&self, name: &str, life: usize) -> PathBuf {
+        self.dir.join(format!("{name}-{life}.ledger"))
+    }
+}
+
+impl Drop for Ledgers {
+    fn drop(&mut self) {
+        if self.remove {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
+    }
 }

@@ -5,6 +5,7 @@ use serde::Serialize;
 
 use super::Fault;
 use super::inject::InjectCounts;
+use crate::ledger::{Followed, NameCounts};
 use crate::node::{NodeProgress, NodeReport, TransportCounts};
 use crate::run::ownership::{self, Ownership};
 use crate::scene::Scene;
@@ -339,6 +340,10 @@ pub struct ChaosReport {
     /// changed between two faults (checked just before each fault, a second after the last
     /// burst), with the fault before.
     pub accounting_slips: Vec<String>,
+    /// Every op and contact report followed by name across the pods' ledgers: what the sums
+    /// in `ops` and `contacts` cannot tell (an op applied twice; one lost behind another
+    /// counted twice).
+    pub by_name: Followed,
 }
 
 /// What [`ChaosReport::new`] is made from.
@@ -362,6 +367,7 @@ pub(super) struct Inputs<'a> {
     pub memory: Vec<MemoryRow>,
     pub fault_log: Vec<crate::record::Fault>,
     pub accounting_slips: Vec<String>,
+    pub by_name: Followed,
 }
 
 /// The counters of pod lives (one pod's several lives, several pods) summed: the cluster's,
@@ -490,6 +496,7 @@ impl ChaosReport {
             memory: inputs.memory,
             fault_log: inputs.fault_log,
             accounting_slips: inputs.accounting_slips,
+            by_name: inputs.by_name,
         }
     }
 
@@ -521,6 +528,15 @@ impl ChaosReport {
         r.entities_adopted + r.handoffs_reclaimed == r.entities_returned
     }
 
+    /// Whether the pods' ledgers name every op and contact report their counters count (a
+    /// pod writes its ledger before the progress line that counts what it wrote, so even a
+    /// killed pod's ledger covers its last counters): without this, ledgers never written
+    /// would follow nothing and find nothing wrong.
+    pub fn ledgers_complete(&self) -> bool {
+        self.by_name.ops.sent >= self.ops.routed
+            && self.by_name.contacts.sent >= self.contacts.routed
+    }
+
     /// Whether memory held: every pod judged stayed within its bound, and a run long enough
     /// for every last incarnation to be judged (a minute or more: kills stop at half-time)
     /// judged at least one.
@@ -531,8 +547,9 @@ impl ChaosReport {
 
     /// Whether the run met every target: every planned fault kind injected and every fault
     /// survived, every injected frame accounted for, no entity lost or owned twice, every
-    /// adoption returned, no routed op or contact report lost, memory within its bound, no
-    /// panic, every pod ended well, nothing else went wrong.
+    /// adoption returned, no routed op or contact report lost or applied twice (by the sums,
+    /// and followed by name), memory within its bound, no panic, every pod ended well, nothing
+    /// else went wrong.
     pub fn holds(&self) -> bool {
         self.faults.all_survived()
             && self.failed_faults.is_empty()
@@ -542,6 +559,9 @@ impl ChaosReport {
             && self.adoptions_returned()
             && self.ops.lost() == 0
             && self.contacts.lost() == 0
+            && self.ledgers_complete()
+            && self.by_name.ops.holds()
+            && self.by_name.contacts.holds()
             && self.memory_holds()
             && self.panics == 0
             && self.exited_badly == 0
@@ -670,6 +690,18 @@ pub fn table(r: &ChaosReport) -> String {
         c.resent,
         c.repeated
     );
+    for (what, n, counted) in [
+        ("ops", &r.by_name.ops, r.ops.routed),
+        ("contact reports", &r.by_name.contacts, r.contacts.routed),
+    ] {
+        out += &by_name_line(what, n, counted);
+    }
+    if r.by_name.unreadable_lines > 0 {
+        out += &format!(
+            "  ({} ledger lines unreadable: cut short by a kill)\n",
+            r.by_name.unreadable_lines
+        );
+    }
     let rc = &r.recovery;
     out += &format!(
         "recovery: {} neighbours taken for dead, {} rejoined; {} entities adopted and {} hand-offs \
@@ -729,6 +761,46 @@ pub fn table(r: &ChaosReport) -> String {
     } else {
         "\nresult: FAILED (see above)\n"
     };
+    out
+}
+
+/// What became of the names of one kind, followed across the pods' ledgers.
+fn by_name_line(what: &str, n: &NameCounts, counted: u64) -> String {
+    let mark = |ok: bool| if ok { "" } else { "  <-- MISMATCH" };
+    let twice: Vec<String> = n
+        .ended_twice
+        .iter()
+        .map(|(ends, count)| format!("{count} {ends}"))
+        .collect();
+    let mut out = format!(
+        "{what} by name: {} sent{}; {} ended once, {} ended twice{}, {} applied twice{}; no end: \
+         {} answered (end unlogged), {} unanswered at the end, {} with a killed sender, {} \
+         lost{}; {} ended unsent\n",
+        n.sent,
+        if n.sent >= counted {
+            String::new()
+        } else {
+            format!(" of {counted} counted  <-- MISMATCH")
+        },
+        n.ended_once,
+        n.ended_twice_total(),
+        if twice.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", twice.join(", "))
+        },
+        n.applied_twice,
+        mark(n.applied_twice == 0),
+        n.answered_end_unlogged,
+        n.unanswered_at_end,
+        n.with_killed_sender,
+        n.lost,
+        mark(n.lost == 0),
+        n.ended_unsent
+    );
+    for example in &n.examples {
+        out += &format!("  {example}\n");
+    }
     out
 }
 
@@ -828,6 +900,10 @@ pub fn markdown(r: &ChaosReport) -> String {
         ("resent / repeats", Left),
         ("unanswered at end + at kills / settled beyond routed", Left),
         ("contact reports sent / surfaced / too old / lost", Left),
+        (
+            "by name, ops; reports: ended twice / applied twice / lost",
+            Left,
+        ),
         ("taken for dead / rejoined", Left),
         (
             "disconnects / reconnects, s down (pods summed), publishes dropped",
@@ -862,6 +938,18 @@ pub fn markdown(r: &ChaosReport) -> String {
             grouped(r.contacts.dropped_stale),
             grouped(r.contacts.lost())
         ),
+        {
+            let (o, c) = (&r.by_name.ops, &r.by_name.contacts);
+            format!(
+                "{} / {} / {}; {} / {} / {}",
+                grouped(o.ended_twice_total()),
+                grouped(o.applied_twice),
+                grouped(o.lost),
+                grouped(c.ended_twice_total()),
+                grouped(c.applied_twice),
+                grouped(c.lost)
+            )
+        },
         pair(rc.neighbours_lost, rc.neighbours_rejoined),
         if redis {
             format!(

@@ -27,6 +27,7 @@ use seam_proxy::{AuthorityMode, ProxyMode, Schedule, SpatialSettings, monotonic_
 use seam_sim::wire::StateEncoding;
 
 use crate::latency::LatencyRecorder;
+use crate::ledger::LedgerFile;
 use crate::pod::{Part, Pod, PodSettings};
 use crate::record::{EntityTable, PodRecorder};
 pub use report::{NodeLine, NodeProgress, NodeReport, TransportCounts};
@@ -253,6 +254,11 @@ pub struct NodeArgs {
     /// stream (see `seam inspect`; `seam run --record` merges its pods').
     #[arg(long, value_name = "FILE")]
     pub record: Option<PathBuf>,
+    /// Write this pod's ledger into FILE as it ticks: a line for everything that happened here
+    /// to a routed op or contact report, by name (sent, answered, applied, dropped, given up,
+    /// unanswered at the end), for following each across pods (`seam chaos` does).
+    #[arg(long, value_name = "FILE")]
+    pub ledger: Option<PathBuf>,
     /// Also write the final report (JSON) to this file.
     #[arg(long)]
     pub metrics: Option<PathBuf>,
@@ -346,6 +352,17 @@ pub fn run_node(
         }
         None => None,
     };
+    let mut ledger = match &args.ledger {
+        Some(path) => {
+            pod.cluster_mut().keep_ledger();
+            Some(
+                LedgerFile::create(path)
+                    .map_err(|e| format!("{}: ledger {}: {e}", pod_name(&part), path.display()))?,
+            )
+        }
+        None => None,
+    };
+    let ledger_failed = |e: std::io::Error| format!("{}: ledger: {e}", pod_name(&part));
     let started = Instant::now();
     let mut tick_time = LatencyRecorder::default();
     let mut record_time = LatencyRecorder::default();
@@ -361,6 +378,11 @@ pub fn run_node(
         max_lag_ns = max_lag_ns.max(due.lag_ns);
         let begun = Instant::now();
         pod.tick().map_err(fail)?;
+        if let Some(ledger) = &mut ledger {
+            ledger
+                .write(&pod.cluster_mut().take_ledger())
+                .map_err(ledger_failed)?;
+        }
         if let Some(recorder) = &mut recorder {
             // The tick's own time goes in the recording; the recorder's counts in the pod's.
             let stepped = begun.elapsed().as_nanos() as u64;
@@ -408,6 +430,11 @@ pub fn run_node(
     // Stopping on purpose: a neighbour still ticking (behind the schedule, or running
     // longer) must not take this pod for dead and adopt what it ends the run owning.
     pod.cluster_mut().leave().map_err(fail)?;
+    if let Some(ledger) = &mut ledger {
+        let mut last = pod.cluster_mut().take_ledger();
+        last.extend(pod.cluster().unanswered_names());
+        ledger.write(&last).map_err(ledger_failed)?;
+    }
     let (recorded_bytes, recorded_entity_ticks) = match recorder {
         Some(recorder) => {
             let counts = (recorder.bytes, recorder.entity_ticks);

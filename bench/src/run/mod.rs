@@ -18,7 +18,7 @@ mod report;
 
 use std::ffi::OsString;
 use std::io::{BufRead, BufReader};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStderr, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -129,6 +129,8 @@ pub struct PodLaunch<'a> {
     pub transport: Option<&'a str>,
     /// The network namespace it runs in (a pod on a simulated host), if any.
     pub namespace: Option<&'a str>,
+    /// Where it writes its ledger (`seam node --ledger`), if anywhere.
+    pub ledger: Option<&'a Path>,
 }
 
 /// Numbers pods' part files apart (see [`RunPlan::record_dir`]).
@@ -188,6 +190,9 @@ pub fn spawn_pod(
         command.arg("--track-flips");
     }
     command.args(["--keyframe-ticks", &plan.keyframe_ticks.to_string()]);
+    if let Some(path) = launch.ledger {
+        command.arg("--ledger").arg(path);
+    }
     if let Some(dir) = &plan.record_dir {
         // One part file per incarnation of a pod (a restarted pod writes a new one).
         let n = PART_FILES.fetch_add(1, Ordering::Relaxed);
@@ -331,6 +336,7 @@ pub fn run_pods(
                 panics: &panics,
                 transport: url.as_deref(),
                 namespace: bridges.as_ref().and_then(|b| b.pod_namespace(index)),
+                ledger: None,
             },
             &lines,
         )?;

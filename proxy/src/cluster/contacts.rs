@@ -9,6 +9,7 @@ use seam_sim::{BodyRole, ContactEvent};
 
 use crate::clock::monotonic_ns;
 use crate::delivery::{Unanswered, Verdict};
+use crate::ledger::LedgerEvent;
 use crate::settle::HALF_WAITS_TICKS;
 
 use super::{Cluster, NeighbourStatus, within};
@@ -101,13 +102,17 @@ impl Cluster {
                     }
                     Verdict::TooOld => {
                         self.stats.contacts_dropped_stale += 1;
+                        self.note_contact(key, LedgerEvent::Stale);
                         continue;
                     }
                 }
                 if u64::from(c.age_ticks) + 1 > max_age {
                     self.stats.contacts_dropped_stale += 1;
+                    self.note_contact(key, LedgerEvent::Stale);
                     continue;
                 }
+                // Surfaced below, or merged with this world's own copy.
+                self.note_contact(key, LedgerEvent::Applied);
                 let event = ContactEvent {
                     a: c.a,
                     b: c.b,
@@ -149,6 +154,7 @@ impl Cluster {
                 continue;
             }
             self.stats.contacts_sent += 1;
+            self.note_contact(key, LedgerEvent::Sent);
             let pending = Unanswered {
                 sent: report,
                 to,
@@ -160,6 +166,7 @@ impl Cluster {
                 sent.push(report);
             } else {
                 self.stats.contacts_given_up += 1;
+                self.note_contact(key, LedgerEvent::GivenUp);
             }
         }
         sent
@@ -176,6 +183,7 @@ impl Cluster {
             let age = pending.age(tick);
             if self.past_answering(age) {
                 self.stats.contacts_given_up += 1;
+                self.note_contact(key, LedgerEvent::GivenUp);
                 continue;
             }
             let report = pending.sent;
@@ -204,11 +212,13 @@ impl Cluster {
                 Some(pending.to)
             } else if unknown {
                 self.stats.contacts_given_up += 1;
+                self.note_contact(key, LedgerEvent::GivenUp);
                 continue;
             } else {
                 // Both bodies are this cluster's now (adopted, or handed here): its own game
                 // code saw the contact, and there is no other owner to tell.
                 self.stats.contacts_own_now += 1;
+                self.note_contact(key, LedgerEvent::GivenUp);
                 continue;
             };
             pending.due_tick = tick + self.config.op_retry_ticks.max(1);
@@ -225,6 +235,7 @@ impl Cluster {
             }
             if !self.outstanding_contacts.keep(key, pending) {
                 self.stats.contacts_given_up += 1;
+                self.note_contact(key, LedgerEvent::GivenUp);
             }
         }
     }

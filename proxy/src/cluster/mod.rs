@@ -15,11 +15,12 @@ use crate::channels;
 use crate::clock::{OpTiming, monotonic_ns};
 use crate::config::{ClusterConfig, CustomProxy, ProxyMode, Region};
 use crate::contact_merge::ContactMerge;
-use crate::delivery::{Outstanding, Settled};
+use crate::delivery::{OpKey, Outstanding, Settled};
 use crate::error::ClusterError;
 use crate::inbox::{HeldReplication, Inbox, TickFrames};
 use crate::interest::Interest;
 use crate::keyframes::Keyframes;
+use crate::ledger::{Carried, LedgerEntry, LedgerEvent};
 use crate::prediction::Predictions;
 use crate::settle::Settlement;
 use crate::stats::ClusterStats;
@@ -83,6 +84,9 @@ pub struct Cluster {
     op_timings: Vec<OpTiming>,
     /// Hand-offs taken and given here, until the caller takes them.
     handoff_log: Vec<HandoffEvent>,
+    /// What became of each op and contact report here, until the caller takes it; `None`
+    /// unless asked for (see [`Cluster::keep_ledger`]).
+    ledger: Option<Vec<LedgerEntry>>,
     /// Contacts with proxies, by the proxy's owner, for this tick's publish.
     outgoing_contacts: IdMap<ClusterId, Vec<ContactReport>>,
     /// Entities to hand over at the next replication frame, and to whom.
@@ -206,6 +210,7 @@ impl Cluster {
             settled: Settled::default(),
             op_timings: Vec::new(),
             handoff_log: Vec::new(),
+            ledger: None,
             outgoing_contacts: IdMap::default(),
             transfers: IdMap::default(),
             handed: IdMap::default(),
@@ -291,6 +296,71 @@ impl Cluster {
         } else {
             self.stats.handoff_log_dropped += 1;
         }
+    }
+
+    /// Keeps a ledger from now on: what became of each routed op and contact report here, by
+    /// name (see `crate::ledger`), for [`Cluster::take_ledger`].
+    pub fn keep_ledger(&mut self) {
+        self.ledger.get_or_insert_with(Vec::new);
+    }
+
+    /// Takes the ledger entries since the last call (at most [`MAX_OP_TIMINGS`] kept between
+    /// calls; more are counted in [`ClusterStats::ledger_dropped`]); empty unless
+    /// [`Cluster::keep_ledger`] was called.
+    pub fn take_ledger(&mut self) -> Vec<LedgerEntry> {
+        self.ledger.as_mut().map(std::mem::take).unwrap_or_default()
+    }
+
+    /// The ops and contact reports sent from here and not answered yet, as ledger entries
+    /// [`LedgerEvent::Unanswered`] at this tick: what a stopping cluster leaves unanswered.
+    pub fn unanswered_names(&self) -> Vec<LedgerEntry> {
+        let tick = self.sim.tick();
+        let entry = |carried| {
+            move |(issuer, seq)| LedgerEntry {
+                tick,
+                issuer,
+                seq,
+                carried,
+                event: LedgerEvent::Unanswered,
+            }
+        };
+        self.outstanding
+            .names()
+            .map(entry(Carried::Op))
+            .chain(
+                self.outstanding_contacts
+                    .names()
+                    .map(entry(Carried::Contact)),
+            )
+            .collect()
+    }
+
+    /// Notes in the ledger, if one is kept, what became of a name here.
+    fn note(&mut self, key: OpKey, carried: Carried, event: LedgerEvent) {
+        let Some(ledger) = &mut self.ledger else {
+            return;
+        };
+        if ledger.len() < MAX_OP_TIMINGS {
+            ledger.push(LedgerEntry {
+                tick: self.sim.tick(),
+                issuer: key.0,
+                seq: key.1,
+                carried,
+                event,
+            });
+        } else {
+            self.stats.ledger_dropped += 1;
+        }
+    }
+
+    /// Notes an op's event in the ledger.
+    fn note_op(&mut self, key: OpKey, event: LedgerEvent) {
+        self.note(key, Carried::Op, event);
+    }
+
+    /// Notes a contact report's event in the ledger.
+    fn note_contact(&mut self, key: OpKey, event: LedgerEvent) {
+        self.note(key, Carried::Contact, event);
     }
 
     /// Carries on the world's tick count from `tick`: a pod restarted into a running world

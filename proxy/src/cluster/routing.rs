@@ -8,6 +8,7 @@ use seam_sim::{SimError, WriteRouter};
 
 use crate::clock::{OpTiming, monotonic_ns};
 use crate::delivery::{OpKey, Unanswered, Verdict};
+use crate::ledger::LedgerEvent;
 
 use super::{Cluster, MAX_OP_TIMINGS, NeighbourStatus, within};
 
@@ -68,8 +69,10 @@ impl Cluster {
                     if ack.done {
                         if self.outstanding.take(key).is_some() {
                             self.stats.ops_acked += 1;
+                            self.note_op(key, LedgerEvent::Answered);
                         } else if self.outstanding_contacts.take(key).is_some() {
                             self.stats.contacts_acked += 1;
+                            self.note_contact(key, LedgerEvent::Answered);
                         }
                     } else {
                         self.outstanding.returned(key, tick);
@@ -134,6 +137,7 @@ impl Cluster {
                     }
                     Verdict::TooOld => {
                         self.stats.ops_dropped_window += 1;
+                        self.note_op(key, LedgerEvent::Dropped);
                         self.answer(frame.from, routed, true);
                         continue;
                     }
@@ -145,6 +149,7 @@ impl Cluster {
                 {
                     self.settle(key);
                     self.stats.ops_dropped_absurd += 1;
+                    self.note_op(key, LedgerEvent::Dropped);
                     self.answer(frame.from, routed, true);
                     continue;
                 }
@@ -153,6 +158,7 @@ impl Cluster {
                 if u64::from(routed.age_ticks) + 1 > self.config.max_op_age_ticks {
                     self.settle(key);
                     self.stats.ops_dropped_stale += 1;
+                    self.note_op(key, LedgerEvent::Stale);
                     self.answer(frame.from, routed, true);
                     continue;
                 }
@@ -196,6 +202,7 @@ impl Cluster {
         match self.sim.apply_op(&routed.op) {
             Ok(()) => {
                 self.stats.ops_applied += 1;
+                self.note_op(key, LedgerEvent::Applied);
                 let timing = OpTiming {
                     from: key.0,
                     target: routed.op.target(),
@@ -212,7 +219,10 @@ impl Cluster {
                     self.stats.op_timings_dropped += 1;
                 }
             }
-            Err(_) => self.stats.ops_dropped_invalid += 1,
+            Err(_) => {
+                self.stats.ops_dropped_invalid += 1;
+                self.note_op(key, LedgerEvent::Dropped);
+            }
         }
     }
 
@@ -226,6 +236,7 @@ impl Cluster {
             let age = pending.age(tick);
             if self.past_answering(age) {
                 self.stats.ops_expired += 1;
+                self.note_op(key, LedgerEvent::GivenUp);
                 continue;
             }
             let target = pending.sent.op.target();
@@ -238,6 +249,7 @@ impl Cluster {
                     {
                         self.settle(key);
                         self.stats.ops_dropped_stale += 1;
+                        self.note_op(key, LedgerEvent::Stale);
                     } else if self.settled.verdict(key) == Verdict::New {
                         let arrival = Arrival {
                             published_ns: monotonic_ns(),
@@ -257,6 +269,7 @@ impl Cluster {
                 // Scenery, or an owner this cluster cannot send to.
                 Some(_) => {
                     self.stats.ops_dropped_gone += 1;
+                    self.note_op(key, LedgerEvent::Dropped);
                     continue;
                 }
                 // Not in this world: the last receiver may still place it, unless it said it
@@ -264,6 +277,7 @@ impl Cluster {
                 None if pending.returned || !self.reachable(pending.to) => {
                     if pending.returned {
                         self.stats.ops_dropped_gone += 1;
+                        self.note_op(key, LedgerEvent::Dropped);
                         continue;
                     }
                     None
@@ -283,6 +297,7 @@ impl Cluster {
             }
             if !self.outstanding.keep(key, pending) {
                 self.stats.ops_dropped_queue_full += 1;
+                self.note_op(key, LedgerEvent::Dropped);
             }
         }
     }
@@ -324,10 +339,12 @@ impl Cluster {
             if key.0 == me {
                 self.stats.ops_routed += 1;
             }
+            self.note_op(key, LedgerEvent::Sent);
             if self.outstanding.keep(key, pending) {
                 sent.push(op);
             } else {
                 self.stats.ops_dropped_queue_full += 1;
+                self.note_op(key, LedgerEvent::Dropped);
             }
         }
         sent

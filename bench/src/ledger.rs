@@ -1,0 +1,328 @@
+//! Pods' ledgers (`seam node --ledger FILE`, see `seam_proxy::LedgerEntry`): what became of
+//! every routed op and contact report, by name, written by each pod as it ticks; and
+//! [`follow`], which reads the ledgers of every life of every pod of a run and follows each
+//! name from its first send to its end.
+//!
+//! The counters the pods report say how many ops were routed and how many ended each way; one
+//! op counted twice (applied by an owner that was killed before its answer went out, and then
+//! given up by its sender) hides one lost in the sums. Followed by name, nothing hides: an op
+//! applied twice, one that ended twice, and one with no end are each seen and counted.
+
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use seam_proxy::{Carried, LedgerEntry, LedgerEvent};
+use serde::Serialize;
+
+/// A pod's ledger file, written as it ticks.
+pub struct LedgerFile {
+    out: BufWriter<File>,
+}
+
+impl LedgerFile {
+    /// Creates (or truncates) `path`.
+    pub fn create(path: &Path) -> io::Result<Self> {
+        Ok(Self {
+            out: BufWriter::new(File::create(path)?),
+        })
+    }
+
+    /// Writes `entries`, a line each, and hands them to the kernel: a pod killed after this
+    /// call leaves them in the file.
+    pub fn write(&mut self, entries: &[LedgerEntry]) -> io::Result<()> {
+        if entries.is_empty() {
+            return Ok(());
+        }
+        for entry in entries {
+            writeln!(self.out, "{}", entry.line())?;
+        }
+        self.out.flush()
+    }
+}
+
+/// One life of a pod: the ledger it wrote, and whether it was killed (so what it still held
+/// went with it).
+#[derive(Debug, Clone)]
+pub struct Life {
+    /// Its ledger file.
+    pub path: PathBuf,
+    /// Killed, not stopped at the end of the run.
+    pub killed: bool,
+}
+
+/// What became of the names of one kind (ops, or contact reports), followed across every
+/// pod's ledgers. Every name a life sent lands in exactly one of the counts from `ended_once`
+/// to `lost`.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct NameCounts {
+    /// Names some life sent.
+    pub sent: u64,
+    /// Ended once: applied once, or dropped or given up once.
+    pub ended_once: u64,
+    /// Applied by two owners, or twice by one: the failure delivery exists to prevent.
+    pub applied_twice: u64,
+    /// Ended twice without being applied twice (applied at one cluster and given up at its
+    /// sender, say), by the two ends.
+    pub ended_twice: BTreeMap<String, u64>,
+    /// No end logged, but every cluster that sent it had it answered done: its receiver's
+    /// ledger lost the end (a pod killed between publishing the answer and writing its
+    /// ledger).
+    pub answered_end_unlogged: u64,
+    /// No end: still unanswered when its sender stopped at the end of the run.
+    pub unanswered_at_end: u64,
+    /// No end: unanswered in the hands of a life that was killed.
+    pub with_killed_sender: u64,
+    /// No end, and held by no life that stopped or was killed with it: lost.
+    pub lost: u64,
+    /// A few lost or applied-twice names with their events, to start tracing from.
+    pub examples: Vec<String>,
+    /// Names with an end but no life's send logged (sent in the tick its issuer was killed,
+    /// before the ledger was written); not in `sent`.
+    pub ended_unsent: u64,
+}
+
+impl NameCounts {
+    /// Names that ended twice, by any two ends.
+    pub fn ended_twice_total(&self) -> u64 {
+        self.ended_twice.values().sum()
+    }
+
+    /// Whether every name was delivered as promised: none lost, none applied twice.
+    pub fn holds(&self) -> bool {
+        self.lost == 0 && self.applied_twice == 0
+    }
+}
+
+/// What [`follow`] found.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Followed {
+    /// Routed ops.
+    pub ops: NameCounts,
+    /// Contact reports.
+    pub contacts: NameCounts,
+    /// Lines that were not ledger entries (a life killed mid-line leaves one).
+    pub unreadable_lines: u64,
+}
+
+/// At most this many example names are kept per kind.
+const EXAMPLES: usize = 5;
+
+/// Reads the ledgers of `lives` and follows every name to its end. A missing file (a life
+/// killed before it wrote a line) is no names.
+pub fn follow(lives: &[Life]) -> io::Result<Followed> {
+    type Name = (Carried, u128, u64);
+    let mut names: HashMap<Name, Vec<(usize, LedgerEvent)>> = HashMap::new();
+    let mut followed = Followed::default();
+    for (index, life) in lives.iter().enumerate() {
+        let text = match std::fs::read_to_string(&life.path) {
+            Ok(text) => text,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(e),
+        };
+        // Only whole lines: what follows the last newline was cut short by a kill.
+        let whole = text.rfind('\n').map_or("", |end| &text[..end]);
+        for line in whole.lines() {
+            match LedgerEntry::parse(line) {
+                Some(e) => names
+                    .entry((e.carried, e.issuer.as_u128(), e.seq))
+                    .or_default()
+                    .push((index, e.event)),
+                None => followed.unreadable_lines += 1,
+            }
+        }
+    }
+    for ((carried, issuer, seq), events) in names {
+        let counts = match carried {
+            Carried::Op => &mut followed.ops,
+            Carried::Contact => &mut followed.contacts,
+        };
+        let ends: Vec<LedgerEvent> = events
+            .iter()
+            .map(|&(_, e)| e)
+            .filter(|e| e.ends())
+            .collect();
+        let senders: Vec<usize> = events
+            .iter()
+            .filter(|&&(_, e)| e == LedgerEvent::Sent)
+            .map(|&(life, _)| life)
+            .collect();
+        if senders.is_empty() {
+            counts.ended_unsent += u64::from(!ends.is_empty());
+            continue;
+        }
+        counts.sent += 1;
+        let applied = ends.iter().filter(|&&e| e == LedgerEvent::Applied).count();
+        let example = || {
+            let events: Vec<String> = events
+                .iter()
+                .map(|&(life, e)| format!("{} at {}", e.word(), lives[life].path.display()))
+                .collect();
+            format!("{issuer:032x}#{seq}: {}", events.join(", "))
+        };
+        if applied >= 2 {
+            counts.applied_twice += 1;
+            if counts.examples.len() < EXAMPLES {
+                counts.examples.push(example());
+            }
+            continue;
+        }
+        match ends.len() {
+            1 => {
+                counts.ended_once += 1;
+                continue;
+            }
+            0 => {}
+            _ => {
+                let mut words: Vec<&str> = ends.iter().map(|e| e.word()).collect();
+                words.sort_unstable();
+                *counts.ended_twice.entry(words.join(" + ")).or_default() += 1;
+                continue;
+            }
+        }
+        let has = |life: usize, event: LedgerEvent| events.contains(&(life, event));
+        let holding: Vec<usize> = senders
+            .iter()
+            .copied()
+            .filter(|&life| !has(life, LedgerEvent::Answered))
+            .collect();
+        // Each life still holding it must account for it: killed with it, or stopped with it
+        // unanswered. A life that ran to the end and says neither dropped it unsaid.
+        let accounted = |&life: &usize| lives[life].killed || has(life, LedgerEvent::Unanswered);
+        if holding.is_empty() {
+            counts.answered_end_unlogged += 1;
+        } else if !holding.iter().all(accounted) {
+            counts.lost += 1;
+            if counts.examples.len() < EXAMPLES {
+                counts.examples.push(example());
+            }
+        } else if holding
+            .iter()
+            .any(|&life| has(life, LedgerEvent::Unanswered))
+        {
+            counts.unanswered_at_end += 1;
+        } else {
+            counts.with_killed_sender += 1;
+        }
+    }
+    Ok(followed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use seam_sim::wire::ClusterId;
+
+    fn entry(seq: u64, carried: Carried, event: LedgerEvent) -> LedgerEntry {
+        LedgerEntry {
+            tick: 7,
+            issuer: ClusterId::named("t", "west"),
+            seq,
+            carried,
+            event,
+        }
+    }
+
+    fn write(dir: &Path, name: &str, entries: &[LedgerEntry], tail: &str) -> PathBuf {
+        let path = dir.join(name);
+        let mut file = LedgerFile::create(&path).unwrap();
+        file.write(entries).unwrap();
+        drop(file);
+        std::fs::OpenOptions::new()
+            .append(true)
+            .open(&path)
+            .unwrap()
+            .write_all(tail.as_bytes())
+            .unwrap();
+        path
+    }
+
+    /// Every way a name can end is told apart: each name below is built to land in one count,
+    /// and a count that takes the wrong names fails.
+    #[test]
+    fn every_name_lands_in_the_count_its_events_make() {
+        use Carried::{Contact, Op};
+        use LedgerEvent::*;
+        let dir = std::env::temp_dir().join(format!("seam-ledger-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // The issuer's life, stopped at the end.
+        let issuer = write(
+            &dir,
+            "west-0",
+            &[
+                entry(1, Op, Sent),
+                entry(1, Op, Answered),
+                entry(2, Op, Sent),
+                entry(2, Op, Answered),
+                entry(3, Op, Sent),
+                entry(3, Op, GivenUp),
+                entry(4, Op, Sent),
+                entry(5, Op, Sent),
+                entry(5, Op, Unanswered),
+                entry(6, Op, Sent),
+                entry(6, Op, Answered),
+                entry(7, Contact, Sent),
+                entry(7, Contact, Answered),
+                entry(8, Contact, Sent),
+                entry(9, Op, Sent),
+                entry(9, Op, Answered),
+            ],
+            // A line cut short by a kill: not read.
+            "7 applied op 0000",
+        );
+        // Its owner's first life, killed: applied 1, 2 and 3, and 9 before the kill.
+        let owner_killed = write(
+            &dir,
+            "east-0",
+            &[
+                entry(1, Op, Applied),
+                entry(2, Op, Applied),
+                entry(3, Op, Applied),
+                entry(7, Contact, Applied),
+                entry(10, Op, Applied),
+            ],
+            "",
+        );
+        // The owner's next life applied 2 again; forwarder life took 9 on and was killed
+        // holding it.
+        let owner = write(&dir, "east-1", &[entry(2, Op, Applied)], "");
+        let forwarder = write(&dir, "north-0", &[entry(9, Op, Sent)], "");
+        let life = |path: &PathBuf, killed| Life {
+            path: path.clone(),
+            killed,
+        };
+        let lives = [
+            life(&issuer, false),
+            life(&owner_killed, true),
+            life(&owner, false),
+            life(&forwarder, true),
+            life(&dir.join("never-written"), true),
+        ];
+        let followed = follow(&lives).unwrap();
+        let ops = &followed.ops;
+        // 1 applied once; 2 applied twice; 3 applied and given up; 4 lost; 5 unanswered at
+        // the end; 6 answered with its end unlogged; 9 answered by the forwarder, which was
+        // killed holding it; 10 has no send.
+        assert_eq!(ops.sent, 7);
+        assert_eq!(ops.ended_once, 1);
+        assert_eq!(ops.applied_twice, 1);
+        assert_eq!(
+            ops.ended_twice,
+            BTreeMap::from([("applied + given-up".to_owned(), 1)])
+        );
+        assert_eq!(ops.lost, 1);
+        assert_eq!(ops.unanswered_at_end, 1);
+        assert_eq!(ops.answered_end_unlogged, 1);
+        assert_eq!(ops.with_killed_sender, 1);
+        assert_eq!(ops.ended_unsent, 1);
+        assert_eq!(ops.examples.len(), 2, "{:?}", ops.examples);
+        assert!(!ops.holds());
+        // Contact 7 surfaced once; 8 lost.
+        assert_eq!(followed.contacts.sent, 2);
+        assert_eq!(followed.contacts.ended_once, 1);
+        assert_eq!(followed.contacts.lost, 1);
+        assert_eq!(followed.unreadable_lines, 0);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,183 @@
+//! A ledger of what became of each routed op and contact report, by name, as one cluster saw
+//! it. The counters in [`crate::ClusterStats`] say how many ops were applied, dropped or given
+//! up; the ledger says which. It is kept only when asked for ([`crate::Cluster::keep_ledger`]):
+//! a harness that gathers the ledgers of every pod of a run can follow each name from its
+//! first send to its end, and tell an op applied twice, or lost, from two outcomes counted for
+//! one op (`seam chaos` does).
+//!
+//! A name is its issuer and the issuer's number for it (ops and contact reports of one issuer
+//! share the counter, so a name is one or the other). Events of a name, across clusters:
+//!
+//! - [`LedgerEvent::Sent`] by each cluster that took it into its hands to send: its issuer, and
+//!   a former owner that took it on to forward;
+//! - [`LedgerEvent::Answered`] by such a cluster when the receiver answered it done (the
+//!   receiver applied it, dropped it for good, or took it on to forward);
+//! - one end: [`LedgerEvent::Applied`] (an op applied by its target's owner, a report surfaced
+//!   to its game code or merged with its own copy), [`LedgerEvent::Stale`] (dropped by a
+//!   receiver as older than `max_op_age_ticks`), [`LedgerEvent::Dropped`] (by a receiver or the
+//!   sender for another reason: invalid, beyond the bound, out of the window, entity gone, no
+//!   room in the queue) or [`LedgerEvent::GivenUp`] (by its sender: unanswered past answering,
+//!   or for a report, nobody left to tell or the pair its own now);
+//! - [`LedgerEvent::Unanswered`]: still in a sender's hands when it stopped
+//!   ([`crate::Cluster::unanswered_names`], written by the harness at the end).
+
+use seam_sim::wire::ClusterId;
+
+/// What a name stands for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Carried {
+    /// A routed op (a write on a remote-owned entity).
+    Op,
+    /// A contact report.
+    Contact,
+}
+
+/// Something that happened to a name at one cluster (see the module's text).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum LedgerEvent {
+    /// Taken into this cluster's hands to send: issued here, or taken on to forward.
+    Sent,
+    /// Answered done by the cluster this one sent it to.
+    Answered,
+    /// Applied here (an op on an entity owned here), or surfaced or merged here (a report).
+    Applied,
+    /// Dropped here as older than `max_op_age_ticks`.
+    Stale,
+    /// Dropped here for another reason: invalid, beyond the bound, out of the window, entity
+    /// gone, no room in a queue.
+    Dropped,
+    /// Given up by this cluster, its sender.
+    GivenUp,
+    /// Still unanswered here when this cluster stopped.
+    Unanswered,
+}
+
+impl LedgerEvent {
+    /// Every event, in the order of their codes.
+    pub const ALL: [LedgerEvent; 7] = [
+        LedgerEvent::Sent,
+        LedgerEvent::Answered,
+        LedgerEvent::Applied,
+        LedgerEvent::Stale,
+        LedgerEvent::Dropped,
+        LedgerEvent::GivenUp,
+        LedgerEvent::Unanswered,
+    ];
+
+    /// Whether it ends the name: applied, or dropped or given up for good.
+    pub fn ends(self) -> bool {
+        matches!(
+            self,
+            LedgerEvent::Applied | LedgerEvent::Stale | LedgerEvent::Dropped | LedgerEvent::GivenUp
+        )
+    }
+
+    /// A short word for it (what [`LedgerEntry::line`] writes).
+    pub fn word(self) -> &'static str {
+        match self {
+            LedgerEvent::Sent => "sent",
+            LedgerEvent::Answered => "answered",
+            LedgerEvent::Applied => "applied",
+            LedgerEvent::Stale => "stale",
+            LedgerEvent::Dropped => "dropped",
+            LedgerEvent::GivenUp => "given-up",
+            LedgerEvent::Unanswered => "unanswered",
+        }
+    }
+}
+
+/// One event of one name at one cluster.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LedgerEntry {
+    /// The cluster's tick when it happened.
+    pub tick: u64,
+    /// The name's issuer.
+    pub issuer: ClusterId,
+    /// The issuer's number for it.
+    pub seq: u64,
+    /// Op or contact report.
+    pub carried: Carried,
+    /// What happened.
+    pub event: LedgerEvent,
+}
+
+impl LedgerEntry {
+    /// The entry as one line of text (no newline): `tick event op|contact issuer seq`, the
+    /// issuer as 32 hex digits.
+    pub fn line(&self) -> String {
+        let carried = match self.carried {
+            Carried::Op => "op",
+            Carried::Contact => "contact",
+        };
+        format!(
+            "{} {} {carried} {:032x} {}",
+            self.tick,
+            self.event.word(),
+            self.issuer.as_u128(),
+            self.seq
+        )
+    }
+
+    /// Reads a line written by [`LedgerEntry::line`]; `None` if it is not one (a pod killed
+    /// mid-write leaves a line cut short).
+    pub fn parse(line: &str) -> Option<LedgerEntry> {
+        let mut words = line.split(' ');
+        let tick = words.next()?.parse().ok()?;
+        let word = words.next()?;
+        let event = LedgerEvent::ALL.into_iter().find(|e| e.word() == word)?;
+        let carried = match words.next()? {
+            "op" => Carried::Op,
+            "contact" => Carried::Contact,
+            _ => return None,
+        };
+        let issuer = words.next()?;
+        if issuer.len() != 32 {
+            return None;
+        }
+        let issuer = ClusterId::from_u128(u128::from_str_radix(issuer, 16).ok()?);
+        let seq = words.next()?.parse().ok()?;
+        if words.next().is_some() {
+            return None;
+        }
+        Some(LedgerEntry {
+            tick,
+            issuer,
+            seq,
+            carried,
+            event,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn entries_read_back_as_written_and_cut_lines_are_refused() {
+        let issuer = ClusterId::named("run", "west");
+        for event in LedgerEvent::ALL {
+            for carried in [Carried::Op, Carried::Contact] {
+                let entry = LedgerEntry {
+                    tick: 1_234,
+                    issuer,
+                    seq: 1_733_000_000_000_123,
+                    carried,
+                    event,
+                };
+                let line = entry.line();
+                assert_eq!(LedgerEntry::parse(&line), Some(entry), "{line}");
+                for cut in 0..line.len() - 1 {
+                    let short = &line[..cut];
+                    // A cut inside the number may still read as a smaller number; a cut
+                    // anywhere else must be refused.
+                    if let Some(read) = LedgerEntry::parse(short) {
+                        assert!(line.starts_with(short) && read.seq < entry.seq, "{short}");
+                    }
+                }
+            }
+        }
+        assert_eq!(LedgerEntry::parse("12 applied op 00 7"), None);
+        assert_eq!(LedgerEntry::parse(""), None);
+    }
+}
