@@ -13,7 +13,8 @@ use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use seam_proxy::{Carried, LedgerEntry, LedgerEvent};
+use seam_proxy::{Carried, LedgerEntry, LedgerEvent, parse_cluster};
+use seam_sim::wire::ClusterId;
 use serde::Serialize;
 
 /// A pod's ledger file, written as it ticks.
@@ -21,12 +22,16 @@ pub struct LedgerFile {
     out: BufWriter<File>,
 }
 
+/// How a ledger file starts: the cluster whose ledger it is.
+const HEADER: &str = "# cluster ";
+
 impl LedgerFile {
-    /// Creates (or truncates) `path`.
-    pub fn create(path: &Path) -> io::Result<Self> {
-        Ok(Self {
-            out: BufWriter::new(File::create(path)?),
-        })
+    /// Creates (or truncates) `path`, the ledger of `cluster`.
+    pub fn create(path: &Path, cluster: ClusterId) -> io::Result<Self> {
+        let mut out = BufWriter::new(File::create(path)?);
+        writeln!(out, "{HEADER}{:032x}", cluster.as_u128())?;
+        out.flush()?;
+        Ok(Self { out })
     }
 
     /// Writes `entries`, a line each, and hands them to the kernel: a pod killed after this
@@ -48,8 +53,20 @@ impl LedgerFile {
 pub struct Life {
     /// Its ledger file.
     pub path: PathBuf,
-    /// Killed, not stopped at the end of the run.
-    pub killed: bool,
+    /// Killed (not stopped at the end of the run), after the last tick it was seen to finish.
+    pub killed_after: Option<u64>,
+}
+
+impl Life {
+    /// Whether it was killed.
+    pub fn killed(&self) -> bool {
+        self.killed_after.is_some()
+    }
+
+    /// Whether it was still ticking at world tick `tick` (pods of a run share the tick count).
+    fn ticking_at(&self, tick: u64) -> bool {
+        self.killed_after.is_none_or(|last| last >= tick)
+    }
 }
 
 /// What became of the names of one kind (ops, or contact reports), followed across every
@@ -63,6 +80,9 @@ pub struct NameCounts {
     pub ended_once: u64,
     /// Applied by two owners, or twice by one: the failure delivery exists to prevent.
     pub applied_twice: u64,
+    /// Of those ended once: applied also to an adopter's copy of a body whose owner was only
+    /// stalled, applied it on waking and kept its own copy (the adopter's stopped).
+    pub applied_to_dropped_copy: u64,
     /// Ended twice without being applied twice (applied at one cluster and given up at its
     /// sender, say), by the two ends.
     pub ended_twice: BTreeMap<String, u64>,
@@ -113,8 +133,10 @@ const EXAMPLES: usize = 5;
 /// killed before it wrote a line) is no names.
 pub fn follow(lives: &[Life]) -> io::Result<Followed> {
     type Name = (Carried, u128, u64);
-    let mut names: HashMap<Name, Vec<(usize, LedgerEvent)>> = HashMap::new();
+    let mut names: HashMap<Name, Vec<(usize, LedgerEntry)>> = HashMap::new();
     let mut followed = Followed::default();
+    // Whose ledger each life's is (from its first line).
+    let mut cluster_of: Vec<Option<ClusterId>> = vec![None; lives.len()];
     for (index, life) in lives.iter().enumerate() {
         let text = match std::fs::read_to_string(&life.path) {
             Ok(text) => text,
@@ -124,11 +146,15 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
         // Only whole lines: what follows the last newline was cut short by a kill.
         let whole = text.rfind('\n').map_or("", |end| &text[..end]);
         for line in whole.lines() {
+            if let Some(cluster) = line.strip_prefix(HEADER) {
+                cluster_of[index] = parse_cluster(cluster);
+                continue;
+            }
             match LedgerEntry::parse(line) {
                 Some(e) => names
                     .entry((e.carried, e.issuer.as_u128(), e.seq))
                     .or_default()
-                    .push((index, e.event)),
+                    .push((index, e)),
                 None => followed.unreadable_lines += 1,
             }
         }
@@ -138,14 +164,35 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
             Carried::Op => &mut followed.ops,
             Carried::Contact => &mut followed.contacts,
         };
+        // An application to an adopter's copy of a body whose owner also applied it in a life
+        // still ticking after the adopter's application: the owner was only stalled, applied
+        // it on waking, was heard again and kept its copy, and the adopter's copy stopped (see
+        // `seam_proxy::LedgerEntry::adopted_from`). An owner killed first was taken for dead
+        // for want of frames, so it stopped ticking before the adopter took its bodies: the
+        // adopter's copy lives on, and two applications are two.
+        let owner_applied_and_ticked_on = |from: ClusterId, adopter_tick: u64| {
+            events.iter().any(|&(life, e)| {
+                e.event == LedgerEvent::Applied
+                    && e.adopted_from.is_none()
+                    && cluster_of[life] == Some(from)
+                    && lives[life].ticking_at(adopter_tick)
+            })
+        };
+        let to_dropped_copy = |&(_, e): &(usize, LedgerEntry)| {
+            e.event == LedgerEvent::Applied
+                && e.adopted_from
+                    .is_some_and(|from| owner_applied_and_ticked_on(from, e.tick))
+        };
+        let dropped_copies = events.iter().filter(|e| to_dropped_copy(e)).count();
         let ends: Vec<LedgerEvent> = events
             .iter()
-            .map(|&(_, e)| e)
+            .filter(|e| !to_dropped_copy(e))
+            .map(|&(_, e)| e.event)
             .filter(|e| e.ends())
             .collect();
         let senders: Vec<usize> = events
             .iter()
-            .filter(|&&(_, e)| e == LedgerEvent::Sent)
+            .filter(|&&(_, e)| e.event == LedgerEvent::Sent)
             .map(|&(life, _)| life)
             .collect();
         if senders.is_empty() {
@@ -157,7 +204,19 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
         let example = || {
             let events: Vec<String> = events
                 .iter()
-                .map(|&(life, e)| format!("{} at {}", e.word(), lives[life].path.display()))
+                .map(|&(life, e)| {
+                    let copy = if e.adopted_from.is_some() {
+                        " to an adopted copy"
+                    } else {
+                        ""
+                    };
+                    format!(
+                        "{}{copy} at tick {} by {}",
+                        e.event.word(),
+                        e.tick,
+                        lives[life].path.display()
+                    )
+                })
                 .collect();
             format!("{issuer:032x}#{seq}: {}", events.join(", "))
         };
@@ -171,6 +230,7 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
         match ends.len() {
             1 => {
                 counts.ended_once += 1;
+                counts.applied_to_dropped_copy += u64::from(dropped_copies > 0);
                 continue;
             }
             0 => {}
@@ -181,7 +241,9 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
                 continue;
             }
         }
-        let has = |life: usize, event: LedgerEvent| events.contains(&(life, event));
+        let has = |life: usize, event: LedgerEvent| {
+            events.iter().any(|&(l, e)| l == life && e.event == event)
+        };
         let holding: Vec<usize> = senders
             .iter()
             .copied()
@@ -189,7 +251,7 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
             .collect();
         // Each life still holding it must account for it: killed with it, or stopped with it
         // unanswered. A life that ran to the end and says neither dropped it unsaid.
-        let accounted = |&life: &usize| lives[life].killed || has(life, LedgerEvent::Unanswered);
+        let accounted = |&life: &usize| lives[life].killed() || has(life, LedgerEvent::Unanswered);
         if holding.is_empty() {
             counts.answered_end_unlogged += 1;
         } else if !holding.iter().all(accounted) {
@@ -212,7 +274,6 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use seam_sim::wire::ClusterId;
 
     fn entry(seq: u64, carried: Carried, event: LedgerEvent) -> LedgerEntry {
         LedgerEntry {
@@ -221,12 +282,23 @@ mod tests {
             seq,
             carried,
             event,
+            adopted_from: None,
         }
     }
 
+    /// Op `seq` applied to a body adopted from `from`.
+    fn applied_adopted(seq: u64, from: &str) -> LedgerEntry {
+        LedgerEntry {
+            adopted_from: Some(ClusterId::named("t", from)),
+            ..entry(seq, Carried::Op, LedgerEvent::Applied)
+        }
+    }
+
+    /// Writes the ledger of `cluster`'s life `name`, then `tail` as it is.
     fn write(dir: &Path, name: &str, entries: &[LedgerEntry], tail: &str) -> PathBuf {
         let path = dir.join(name);
-        let mut file = LedgerFile::create(&path).unwrap();
+        let cluster = ClusterId::named("t", name.split('-').next().unwrap());
+        let mut file = LedgerFile::create(&path, cluster).unwrap();
         file.write(entries).unwrap();
         drop(file);
         std::fs::OpenOptions::new()
@@ -267,6 +339,10 @@ mod tests {
                 entry(8, Contact, Sent),
                 entry(9, Op, Sent),
                 entry(9, Op, Answered),
+                entry(11, Op, Sent),
+                entry(11, Op, Answered),
+                entry(12, Op, Sent),
+                entry(12, Op, Answered),
             ],
             // A line cut short by a kill: not read.
             "7 applied op 0000",
@@ -281,32 +357,53 @@ mod tests {
                 entry(3, Op, Applied),
                 entry(7, Contact, Applied),
                 entry(10, Op, Applied),
+                entry(12, Op, Applied),
             ],
             "",
         );
         // The owner's next life applied 2 again; forwarder life took 9 on and was killed
         // holding it.
-        let owner = write(&dir, "east-1", &[entry(2, Op, Applied)], "");
+        let owner = write(
+            &dir,
+            "east-1",
+            &[entry(2, Op, Applied), entry(11, Op, Applied)],
+            "",
+        );
         let forwarder = write(&dir, "north-0", &[entry(9, Op, Sent)], "");
-        let life = |path: &PathBuf, killed| Life {
+        // An adopter of east's bodies applied 11, which east's next life applied too and ticked
+        // on after (east was stalled: the adopter's copy was dropped), and 12, which east's
+        // first life applied before it was killed (the adopter's copy lives on: applied
+        // twice).
+        let adopter = write(
+            &dir,
+            "south-0",
+            &[applied_adopted(11, "east"), applied_adopted(12, "east")],
+            "",
+        );
+        let life = |path: &PathBuf, killed_after| Life {
             path: path.clone(),
-            killed,
+            killed_after,
         };
         let lives = [
-            life(&issuer, false),
-            life(&owner_killed, true),
-            life(&owner, false),
-            life(&forwarder, true),
-            life(&dir.join("never-written"), true),
+            life(&issuer, None),
+            // Killed after tick 6: before the adopter applied 12 at tick 7.
+            life(&owner_killed, Some(6)),
+            // Killed later: it ticked on past the adopter's application of 11.
+            life(&owner, Some(7)),
+            life(&forwarder, Some(0)),
+            life(&adopter, None),
+            life(&dir.join("never-written"), Some(0)),
         ];
         let followed = follow(&lives).unwrap();
         let ops = &followed.ops;
         // 1 applied once; 2 applied twice; 3 applied and given up; 4 lost; 5 unanswered at
         // the end; 6 answered with its end unlogged; 9 answered by the forwarder, which was
-        // killed holding it; 10 has no send.
-        assert_eq!(ops.sent, 7);
-        assert_eq!(ops.ended_once, 1);
-        assert_eq!(ops.applied_twice, 1);
+        // killed holding it; 10 has no send; 11 applied once to a copy that lives on; 12
+        // applied twice.
+        assert_eq!(ops.sent, 9);
+        assert_eq!(ops.ended_once, 2);
+        assert_eq!(ops.applied_to_dropped_copy, 1);
+        assert_eq!(ops.applied_twice, 2);
         assert_eq!(
             ops.ended_twice,
             BTreeMap::from([("applied + given-up".to_owned(), 1)])
@@ -316,7 +413,7 @@ mod tests {
         assert_eq!(ops.answered_end_unlogged, 1);
         assert_eq!(ops.with_killed_sender, 1);
         assert_eq!(ops.ended_unsent, 1);
-        assert_eq!(ops.examples.len(), 2, "{:?}", ops.examples);
+        assert_eq!(ops.examples.len(), 3, "{:?}", ops.examples);
         assert!(!ops.holds());
         // Contact 7 surfaced once; 8 lost.
         assert_eq!(followed.contacts.sent, 2);

@@ -11,7 +11,7 @@
 //! answers a repeat without applying it, and drops (counted) a number older than that, which
 //! it can no longer tell from a repeat.
 
-use seam_sim::wire::{ClusterId, IdMap};
+use seam_sim::wire::{ClusterId, ContactReport, IdMap, RoutedOp};
 
 /// Numbers of one issuer an owner remembers: the newest it has seen and the 16 383 before (2 KiB
 /// per issuer). An issuer numbers all its ops from one counter, so a repeat is told apart as
@@ -139,6 +139,44 @@ impl Settled {
     }
 }
 
+/// What a sender keeps until it is answered: a routed op or a contact report.
+pub(crate) trait Numbered: Copy {
+    /// Its name, sent by cluster `me` (a forwarded op keeps its issuer's).
+    fn name(&self, me: ClusterId) -> OpKey;
+    /// Its age when sent.
+    fn age_ticks(&self) -> u32;
+}
+
+impl Numbered for RoutedOp {
+    fn name(&self, me: ClusterId) -> OpKey {
+        (self.issuer.unwrap_or(me), self.seq)
+    }
+
+    fn age_ticks(&self) -> u32 {
+        self.age_ticks
+    }
+}
+
+impl Numbered for ContactReport {
+    fn name(&self, me: ClusterId) -> OpKey {
+        (me, self.seq)
+    }
+
+    fn age_ticks(&self) -> u32 {
+        self.age_ticks
+    }
+}
+
+/// What [`Outstanding::keep_sent`] made of a frame's items.
+pub(crate) struct Kept<T> {
+    /// The items to send: those kept now or before.
+    pub(crate) send: Vec<T>,
+    /// Names sent for the first time and kept.
+    pub(crate) new: Vec<OpKey>,
+    /// Names sent for the first time with no room to keep them: not sent, given up.
+    pub(crate) refused: Vec<OpKey>,
+}
+
 /// An op (or contact report) sent and not answered yet.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Unanswered<T> {
@@ -247,6 +285,48 @@ impl<T: Copy> Outstanding<T> {
         }
     }
 
+    /// Keeps the items of a frame that cluster `me` sends to `to` at `tick` until they are
+    /// answered, due again `retry` ticks on: those sent for the first time are added (if the
+    /// queue for `to` has room); resends are kept already.
+    pub(crate) fn keep_sent(
+        &mut self,
+        me: ClusterId,
+        to: ClusterId,
+        items: Vec<T>,
+        tick: u64,
+        retry: u64,
+    ) -> Kept<T>
+    where
+        T: Numbered,
+    {
+        let mut kept = Kept {
+            send: Vec::with_capacity(items.len()),
+            new: Vec::new(),
+            refused: Vec::new(),
+        };
+        for item in items {
+            let key = item.name(me);
+            if self.contains(key) {
+                kept.send.push(item);
+                continue;
+            }
+            let pending = Unanswered {
+                sent: item,
+                to,
+                born_tick: tick as i64 - i64::from(item.age_ticks()),
+                due_tick: tick + retry,
+                returned: false,
+            };
+            if self.keep(key, pending) {
+                kept.send.push(item);
+                kept.new.push(key);
+            } else {
+                kept.refused.push(key);
+            }
+        }
+        kept
+    }
+
     /// The names of the ops kept.
     pub(crate) fn names(&self) -> impl Iterator<Item = OpKey> + '_ {
         self.ops.keys().copied()
@@ -269,7 +349,6 @@ impl<T: Copy> Outstanding<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use seam_sim::wire::RoutedOp;
 
     fn issuer() -> ClusterId {
         ClusterId::from_u128(1)
@@ -382,5 +461,52 @@ mod tests {
         assert_eq!(due.len(), 2);
         assert!(due.iter().any(|(key, op)| key.1 == 3 && op.returned));
         assert!(outstanding.take((issuer(), 1)).is_none());
+    }
+
+    #[test]
+    fn a_frame_keeps_what_it_sends_first_and_refuses_what_has_no_room() {
+        let me = issuer();
+        let to = ClusterId::from_u128(2);
+        let op = |seq| RoutedOp {
+            op: seam_sim::wire::PhysicsOp::Impulse {
+                target: seam_sim::wire::EntityId::from_u128(9),
+                impulse: [1.0, 0.0, 0.0],
+            },
+            seq,
+            issuer: None,
+            issued_ns: 0,
+            issued_tick: 0,
+            age_ticks: 4,
+        };
+        let mut outstanding = Outstanding::default();
+        let kept = outstanding.keep_sent(me, to, vec![op(1), op(2)], 100, 10);
+        assert_eq!(kept.send.len(), 2);
+        assert_eq!(kept.new, vec![(me, 1), (me, 2)]);
+        assert!(kept.refused.is_empty());
+        // Its age counts from before it came: due 10 ticks on, born 4 ticks back.
+        let due = outstanding.take_due(110);
+        assert_eq!(due.len(), 2);
+        assert!(
+            due.iter()
+                .all(|(_, u)| u.born_tick == 96 && u.age(110) == 14)
+        );
+        for (key, u) in due {
+            assert!(outstanding.keep(key, u));
+        }
+        // A resend is sent and not new; an op forwarded for another issuer keeps its name.
+        let forwarded = RoutedOp {
+            issuer: Some(ClusterId::from_u128(5)),
+            ..op(1)
+        };
+        let kept = outstanding.keep_sent(me, to, vec![op(1), forwarded], 111, 10);
+        assert_eq!(kept.send.len(), 2);
+        assert_eq!(kept.new, vec![(ClusterId::from_u128(5), 1)]);
+        // Past the bound for one destination: refused, not sent.
+        for seq in 1_000..1_000 + MAX_UNANSWERED as u64 {
+            outstanding.keep((me, seq), unanswered(2, 200));
+        }
+        let kept = outstanding.keep_sent(me, to, vec![op(7)], 112, 10);
+        assert!(kept.send.is_empty() && kept.new.is_empty());
+        assert_eq!(kept.refused, vec![(me, 7)]);
     }
 }

@@ -20,6 +20,12 @@
 //!   or for a report, nobody left to tell or the pair its own now);
 //! - [`LedgerEvent::Unanswered`]: still in a sender's hands when it stopped
 //!   ([`crate::Cluster::unanswered_names`], written by the harness at the end).
+//!
+//! An op applied to a body this cluster adopted from a neighbour taken for dead says so
+//! ([`LedgerEntry::adopted_from`]): when that neighbour was only stalled, it keeps its own copy
+//! of the body and applies the op there too (from its buffer, on waking), and the adopter's
+//! copy stops when the neighbour is heard again — two applications, one to a copy that is
+//! dropped. Only an application to a copy that lives on counts.
 
 use seam_sim::wire::ClusterId;
 
@@ -99,23 +105,30 @@ pub struct LedgerEntry {
     pub carried: Carried,
     /// What happened.
     pub event: LedgerEvent,
+    /// For an op applied here: the cluster its target was adopted from, if this cluster holds
+    /// it as an adopter (the owner taken for dead).
+    pub adopted_from: Option<ClusterId>,
 }
 
 impl LedgerEntry {
-    /// The entry as one line of text (no newline): `tick event op|contact issuer seq`, the
-    /// issuer as 32 hex digits.
+    /// The entry as one line of text (no newline): `tick event op|contact issuer seq`, then
+    /// `adopted-from` if there is one; clusters as 32 hex digits.
     pub fn line(&self) -> String {
         let carried = match self.carried {
             Carried::Op => "op",
             Carried::Contact => "contact",
         };
-        format!(
+        let mut line = format!(
             "{} {} {carried} {:032x} {}",
             self.tick,
             self.event.word(),
             self.issuer.as_u128(),
             self.seq
-        )
+        );
+        if let Some(from) = self.adopted_from {
+            line += &format!(" {:032x}", from.as_u128());
+        }
+        line
     }
 
     /// Reads a line written by [`LedgerEntry::line`]; `None` if it is not one (a pod killed
@@ -130,12 +143,12 @@ impl LedgerEntry {
             "contact" => Carried::Contact,
             _ => return None,
         };
-        let issuer = words.next()?;
-        if issuer.len() != 32 {
-            return None;
-        }
-        let issuer = ClusterId::from_u128(u128::from_str_radix(issuer, 16).ok()?);
+        let issuer = parse_cluster(words.next()?)?;
         let seq = words.next()?.parse().ok()?;
+        let adopted_from = match words.next() {
+            Some(word) => Some(parse_cluster(word)?),
+            None => None,
+        };
         if words.next().is_some() {
             return None;
         }
@@ -145,8 +158,19 @@ impl LedgerEntry {
             seq,
             carried,
             event,
+            adopted_from,
         })
     }
+}
+
+/// A cluster id written as 32 hex digits.
+pub fn parse_cluster(word: &str) -> Option<ClusterId> {
+    if word.len() != 32 {
+        return None;
+    }
+    u128::from_str_radix(word, 16)
+        .ok()
+        .map(ClusterId::from_u128)
 }
 
 #[cfg(test)]
@@ -156,7 +180,8 @@ mod tests {
     #[test]
     fn entries_read_back_as_written_and_cut_lines_are_refused() {
         let issuer = ClusterId::named("run", "west");
-        for event in LedgerEvent::ALL {
+        let adopted = [None, Some(ClusterId::named("run", "east"))];
+        for (event, adopted_from) in LedgerEvent::ALL.into_iter().zip(adopted.iter().cycle()) {
             for carried in [Carried::Op, Carried::Contact] {
                 let entry = LedgerEntry {
                     tick: 1_234,
@@ -164,15 +189,19 @@ mod tests {
                     seq: 1_733_000_000_000_123,
                     carried,
                     event,
+                    adopted_from: *adopted_from,
                 };
                 let line = entry.line();
                 assert_eq!(LedgerEntry::parse(&line), Some(entry), "{line}");
                 for cut in 0..line.len() - 1 {
                     let short = &line[..cut];
-                    // A cut inside the number may still read as a smaller number; a cut
-                    // anywhere else must be refused.
+                    // A cut inside the number may still read as a smaller number (readers
+                    // take only lines ended by a newline); a cut anywhere else is refused.
                     if let Some(read) = LedgerEntry::parse(short) {
-                        assert!(line.starts_with(short) && read.seq < entry.seq, "{short}");
+                        assert!(
+                            read.seq < entry.seq || read.adopted_from.is_none(),
+                            "{short}"
+                        );
                     }
                 }
             }

@@ -289,7 +289,7 @@ pub use config::{
 pub use contact_merge::MERGE_WINDOW_TICKS;
 pub use error::ClusterError;
 pub use interest::extent;
-pub use ledger::{Carried, LedgerEntry, LedgerEvent};
+pub use ledger::{Carried, LedgerEntry, LedgerEvent, parse_cluster};
 pub use lockstep::lockstep_round;
 pub use schedule::{DRAIN_TICKS_UNSCHEDULED, Due, Schedule};
 pub use settle::HALF_WAITS_TICKS;

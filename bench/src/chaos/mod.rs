@@ -230,7 +230,7 @@ pub fn run(
         pod.life = lives.len();
         lives.push(Life {
             path: ledger,
-            killed: false,
+            killed_after: None,
         });
         pod.child = Some(child);
         pod.latest = None;
@@ -297,6 +297,9 @@ pub fn run(
     let mut problems: Vec<String> = Vec::new();
     let mut accounting_slips: Vec<String> = Vec::new();
     let mut unseen_before = (0i64, 0i64);
+    // When the due fault could first have fired (its wait for the counts starts there, not
+    // at its due time, which survival of the fault before may have passed long ago).
+    let mut due_since: Option<Instant> = None;
 
     let take =
         |pods: &mut Vec<PodState>, (index, line): PodLine, problems: &mut Vec<String>| match line {
@@ -394,6 +397,11 @@ pub fn run(
                 }
                 let fault_due =
                     now >= due && now < last_fault_by && pending_survival.is_none() && all_running;
+                let waited_since = if fault_due {
+                    *due_since.get_or_insert(now)
+                } else {
+                    now
+                };
                 // A fault waits (up to `COUNTED_WITHIN`) until every injected frame delivered
                 // so far is counted by a pod: one still in a pod's socket when it is killed or
                 // stopped, or in the server when it is restarted, would be lost by the fault,
@@ -411,7 +419,8 @@ pub fn run(
                 } else {
                     unseen_before
                 };
-                if fault_due && (unseen == unseen_before || now >= due + COUNTED_WITHIN) {
+                if fault_due && (unseen == unseen_before || now >= waited_since + COUNTED_WITHIN) {
+                    due_since = None;
                     if unseen != unseen_before {
                         let last_fault = fault_log.last().map_or("the start".into(), |f| {
                             format!("{} (tick {})", f.what, f.tick)
@@ -449,7 +458,6 @@ pub fn run(
                                     }
                                 }
                                 let _ = child.wait();
-                                lives[pods[index].life].killed = true;
                             }
                             // The dead incarnation's last counters: read what it wrote.
                             let until = Instant::now() + Duration::from_millis(150);
@@ -458,9 +466,10 @@ pub fn run(
                                     take(&mut pods, line, &mut problems);
                                 }
                             }
-                            if let Some((_, last)) = pods[index].latest.take() {
-                                dead_incarnations.push(last);
-                            }
+                            let last = pods[index].latest.take().map(|(_, last)| last);
+                            lives[pods[index].life].killed_after =
+                                Some(last.as_ref().map_or(0, |last| last.tick));
+                            dead_incarnations.extend(last);
                             faults.kill += 1;
                             log_fault(
                                 &mut fault_log,

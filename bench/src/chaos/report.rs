@@ -773,9 +773,10 @@ fn by_name_line(what: &str, n: &NameCounts, counted: u64) -> String {
         .map(|(ends, count)| format!("{count} {ends}"))
         .collect();
     let mut out = format!(
-        "{what} by name: {} sent{}; {} ended once, {} ended twice{}, {} applied twice{}; no end: \
-         {} answered (end unlogged), {} unanswered at the end, {} with a killed sender, {} \
-         lost{}; {} ended unsent\n",
+        "{what} by name: {} sent{}; {} ended once ({} also applied to a stalled owner's \
+         adopted copy, since dropped), {} ended twice{}, {} applied twice{}; no end: {} answered \
+         (end unlogged), {} unanswered at the end, {} with a killed sender, {} lost{}; {} ended \
+         unsent\n",
         n.sent,
         if n.sent >= counted {
             String::new()
@@ -783,6 +784,7 @@ fn by_name_line(what: &str, n: &NameCounts, counted: u64) -> String {
             format!(" of {counted} counted  <-- MISMATCH")
         },
         n.ended_once,
+        n.applied_to_dropped_copy,
         n.ended_twice_total(),
         if twice.is_empty() {
             String::new()

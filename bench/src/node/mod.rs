@@ -356,7 +356,7 @@ pub fn run_node(
         Some(path) => {
             pod.cluster_mut().keep_ledger();
             Some(
-                LedgerFile::create(path)
+                LedgerFile::create(path, pod.cluster().id())
                     .map_err(|e| format!("{}: ledger {}: {e}", pod_name(&part), path.display()))?,
             )
         }

@@ -8,7 +8,7 @@ use seam_sim::wire::{
 use seam_sim::{BodyRole, ContactEvent};
 
 use crate::clock::monotonic_ns;
-use crate::delivery::{Unanswered, Verdict};
+use crate::delivery::Verdict;
 use crate::ledger::LedgerEvent;
 use crate::settle::HALF_WAITS_TICKS;
 
@@ -146,30 +146,18 @@ impl Cluster {
     ) -> Vec<ContactReport> {
         let me = self.config.cluster_id;
         let retry = self.config.op_retry_ticks.max(1);
-        let mut sent = Vec::with_capacity(reports.len());
-        for report in reports {
-            let key = (me, report.seq);
-            if self.outstanding_contacts.contains(key) {
-                sent.push(report);
-                continue;
-            }
+        let kept = self
+            .outstanding_contacts
+            .keep_sent(me, to, reports, tick, retry);
+        for &key in kept.new.iter().chain(&kept.refused) {
             self.stats.contacts_sent += 1;
             self.note_contact(key, LedgerEvent::Sent);
-            let pending = Unanswered {
-                sent: report,
-                to,
-                born_tick: tick as i64 - i64::from(report.age_ticks),
-                due_tick: tick + retry,
-                returned: false,
-            };
-            if self.outstanding_contacts.keep(key, pending) {
-                sent.push(report);
-            } else {
-                self.stats.contacts_given_up += 1;
-                self.note_contact(key, LedgerEvent::GivenUp);
-            }
         }
-        sent
+        for &key in &kept.refused {
+            self.stats.contacts_given_up += 1;
+            self.note_contact(key, LedgerEvent::GivenUp);
+        }
+        kept.send
     }
 
     /// Sends again the unanswered contact reports that are due, each to the cluster this one

@@ -322,6 +322,7 @@ impl Cluster {
                 seq,
                 carried,
                 event: LedgerEvent::Unanswered,
+                adopted_from: None,
             }
         };
         self.outstanding
@@ -336,7 +337,13 @@ impl Cluster {
     }
 
     /// Notes in the ledger, if one is kept, what became of a name here.
-    fn note(&mut self, key: OpKey, carried: Carried, event: LedgerEvent) {
+    fn note(
+        &mut self,
+        key: OpKey,
+        carried: Carried,
+        event: LedgerEvent,
+        adopted_from: Option<ClusterId>,
+    ) {
         let Some(ledger) = &mut self.ledger else {
             return;
         };
@@ -347,6 +354,7 @@ impl Cluster {
                 seq: key.1,
                 carried,
                 event,
+                adopted_from,
             });
         } else {
             self.stats.ledger_dropped += 1;
@@ -355,12 +363,19 @@ impl Cluster {
 
     /// Notes an op's event in the ledger.
     fn note_op(&mut self, key: OpKey, event: LedgerEvent) {
-        self.note(key, Carried::Op, event);
+        self.note(key, Carried::Op, event, None);
+    }
+
+    /// Notes in the ledger an op applied here to `target`, and where the target was adopted
+    /// from if this cluster holds it as an adopter.
+    fn note_applied(&mut self, key: OpKey, target: EntityId) {
+        let from = self.adopted.get(&target).copied();
+        self.note(key, Carried::Op, LedgerEvent::Applied, from);
     }
 
     /// Notes a contact report's event in the ledger.
     fn note_contact(&mut self, key: OpKey, event: LedgerEvent) {
-        self.note(key, Carried::Contact, event);
+        self.note(key, Carried::Contact, event, None);
     }
 
     /// Carries on the world's tick count from `tick`: a pod restarted into a running world

@@ -7,7 +7,7 @@ use seam_sim::wire::{ClusterId, IdMap, OpAck, PhysicsEventsFrame, PhysicsOp, Rou
 use seam_sim::{SimError, WriteRouter};
 
 use crate::clock::{OpTiming, monotonic_ns};
-use crate::delivery::{OpKey, Unanswered, Verdict};
+use crate::delivery::{OpKey, Verdict};
 use crate::ledger::LedgerEvent;
 
 use super::{Cluster, MAX_OP_TIMINGS, NeighbourStatus, within};
@@ -202,7 +202,7 @@ impl Cluster {
         match self.sim.apply_op(&routed.op) {
             Ok(()) => {
                 self.stats.ops_applied += 1;
-                self.note_op(key, LedgerEvent::Applied);
+                self.note_applied(key, routed.op.target());
                 let timing = OpTiming {
                     from: key.0,
                     target: routed.op.target(),
@@ -322,31 +322,17 @@ impl Cluster {
     ) -> Vec<RoutedOp> {
         let me = self.config.cluster_id;
         let retry = self.config.op_retry_ticks.max(1);
-        let mut sent = Vec::with_capacity(ops.len());
-        for op in ops {
-            let key = (op.issuer.unwrap_or(me), op.seq);
-            if self.outstanding.contains(key) {
-                sent.push(op);
-                continue;
-            }
-            let pending = Unanswered {
-                sent: op,
-                to,
-                born_tick: tick as i64 - i64::from(op.age_ticks),
-                due_tick: tick + retry,
-                returned: false,
-            };
+        let kept = self.outstanding.keep_sent(me, to, ops, tick, retry);
+        for &key in kept.new.iter().chain(&kept.refused) {
             if key.0 == me {
                 self.stats.ops_routed += 1;
             }
             self.note_op(key, LedgerEvent::Sent);
-            if self.outstanding.keep(key, pending) {
-                sent.push(op);
-            } else {
-                self.stats.ops_dropped_queue_full += 1;
-                self.note_op(key, LedgerEvent::Dropped);
-            }
         }
-        sent
+        for &key in &kept.refused {
+            self.stats.ops_dropped_queue_full += 1;
+            self.note_op(key, LedgerEvent::Dropped);
+        }
+        kept.send
     }
 }
