@@ -184,11 +184,11 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
                     .is_some_and(|from| owner_applied_and_ticked_on(from, e.tick))
         };
         let dropped_copies = events.iter().filter(|e| to_dropped_copy(e)).count();
-        let ends: Vec<LedgerEvent> = events
+        let ends: Vec<&LedgerEntry> = events
             .iter()
             .filter(|e| !to_dropped_copy(e))
-            .map(|&(_, e)| e.event)
-            .filter(|e| e.ends())
+            .map(|(_, e)| e)
+            .filter(|e| e.event.ends())
             .collect();
         let senders: Vec<usize> = events
             .iter()
@@ -200,7 +200,10 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
             continue;
         }
         counts.sent += 1;
-        let applied = ends.iter().filter(|&&e| e == LedgerEvent::Applied).count();
+        let applied = ends
+            .iter()
+            .filter(|e| e.event == LedgerEvent::Applied)
+            .count();
         let example = || {
             let events: Vec<String> = events
                 .iter()
@@ -235,7 +238,13 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
             }
             0 => {}
             _ => {
-                let mut words: Vec<&str> = ends.iter().map(|e| e.word()).collect();
+                let mut words: Vec<String> = ends
+                    .iter()
+                    .map(|e| match e.adopted_from {
+                        Some(_) => format!("{} by an adopter", e.event.word()),
+                        None => e.event.word().to_owned(),
+                    })
+                    .collect();
                 words.sort_unstable();
                 *counts.ended_twice.entry(words.join(" + ")).or_default() += 1;
                 continue;
@@ -343,6 +352,8 @@ mod tests {
                 entry(11, Op, Answered),
                 entry(12, Op, Sent),
                 entry(12, Op, Answered),
+                entry(13, Op, Sent),
+                entry(13, Op, Answered),
             ],
             // A line cut short by a kill: not read.
             "7 applied op 0000",
@@ -366,7 +377,11 @@ mod tests {
         let owner = write(
             &dir,
             "east-1",
-            &[entry(2, Op, Applied), entry(11, Op, Applied)],
+            &[
+                entry(2, Op, Applied),
+                entry(11, Op, Applied),
+                entry(13, Op, Applied),
+            ],
             "",
         );
         let forwarder = write(&dir, "north-0", &[entry(9, Op, Sent)], "");
@@ -377,7 +392,14 @@ mod tests {
         let adopter = write(
             &dir,
             "south-0",
-            &[applied_adopted(11, "east"), applied_adopted(12, "east")],
+            &[
+                applied_adopted(11, "east"),
+                applied_adopted(12, "east"),
+                LedgerEntry {
+                    event: Stale,
+                    ..applied_adopted(13, "east")
+                },
+            ],
             "",
         );
         let life = |path: &PathBuf, killed_after| Life {
@@ -399,14 +421,17 @@ mod tests {
         // 1 applied once; 2 applied twice; 3 applied and given up; 4 lost; 5 unanswered at
         // the end; 6 answered with its end unlogged; 9 answered by the forwarder, which was
         // killed holding it; 10 has no send; 11 applied once to a copy that lives on; 12
-        // applied twice.
-        assert_eq!(ops.sent, 9);
+        // applied twice; 13 applied by east and dropped as stale by the adopter.
+        assert_eq!(ops.sent, 10);
         assert_eq!(ops.ended_once, 2);
         assert_eq!(ops.applied_to_dropped_copy, 1);
         assert_eq!(ops.applied_twice, 2);
         assert_eq!(
             ops.ended_twice,
-            BTreeMap::from([("applied + given-up".to_owned(), 1)])
+            BTreeMap::from([
+                ("applied + given-up".to_owned(), 1),
+                ("applied + stale by an adopter".to_owned(), 1)
+            ])
         );
         assert_eq!(ops.lost, 1);
         assert_eq!(ops.unanswered_at_end, 1);

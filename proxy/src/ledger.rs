@@ -105,8 +105,9 @@ pub struct LedgerEntry {
     pub carried: Carried,
     /// What happened.
     pub event: LedgerEvent,
-    /// For an op applied here: the cluster its target was adopted from, if this cluster holds
-    /// it as an adopter (the owner taken for dead).
+    /// For an op applied here, or dropped as stale by its sender on finding its target its own
+    /// now: the cluster the target was adopted from, if this cluster holds it as an adopter
+    /// (the owner taken for dead).
     pub adopted_from: Option<ClusterId>,
 }
 

@@ -366,11 +366,11 @@ impl Cluster {
         self.note(key, Carried::Op, event, None);
     }
 
-    /// Notes in the ledger an op applied here to `target`, and where the target was adopted
-    /// from if this cluster holds it as an adopter.
-    fn note_applied(&mut self, key: OpKey, target: EntityId) {
+    /// Notes in the ledger an op applied (or dropped) here on `target`, a body this cluster
+    /// owns, and where the target was adopted from if this cluster holds it as an adopter.
+    fn note_on_body(&mut self, key: OpKey, event: LedgerEvent, target: EntityId) {
         let from = self.adopted.get(&target).copied();
-        self.note(key, Carried::Op, LedgerEvent::Applied, from);
+        self.note(key, Carried::Op, event, from);
     }
 
     /// Notes a contact report's event in the ledger.

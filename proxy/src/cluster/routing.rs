@@ -202,7 +202,7 @@ impl Cluster {
         match self.sim.apply_op(&routed.op) {
             Ok(()) => {
                 self.stats.ops_applied += 1;
-                self.note_applied(key, routed.op.target());
+                self.note_on_body(key, LedgerEvent::Applied, routed.op.target());
                 let timing = OpTiming {
                     from: key.0,
                     target: routed.op.target(),
@@ -249,7 +249,7 @@ impl Cluster {
                     {
                         self.settle(key);
                         self.stats.ops_dropped_stale += 1;
-                        self.note_op(key, LedgerEvent::Stale);
+                        self.note_on_body(key, LedgerEvent::Stale, target);
                     } else if self.settled.verdict(key) == Verdict::New {
                         let arrival = Arrival {
                             published_ns: monotonic_ns(),
