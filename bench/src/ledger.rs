@@ -306,16 +306,16 @@ mod tests {
     /// Writes the ledger of `cluster`'s life `name`, then `tail` as it is.
     fn write(dir: &Path, name: &str, entries: &[LedgerEntry], tail: &str) -> PathBuf {
         let path = dir.join(name);
-        let cluster = ClusterId::named("t", name.split('-').next().unwrap());
-        let mut file = LedgerFile::create(&path, cluster).unwrap();
-        file.write(entries).unwrap();
+        let cluster = ClusterId::named("t", name.split('-').next().unwrap_or(name));
+        let mut file = LedgerFile::create(&path, cluster).expect("the test's ledger files");
+        file.write(entries).expect("the test's ledger files");
         drop(file);
         std::fs::OpenOptions::new()
             .append(true)
             .open(&path)
-            .unwrap()
+            .expect("the test's ledger files")
             .write_all(tail.as_bytes())
-            .unwrap();
+            .expect("the test's ledger files");
         path
     }
 
@@ -326,7 +326,7 @@ mod tests {
         use Carried::{Contact, Op};
         use LedgerEvent::*;
         let dir = std::env::temp_dir().join(format!("seam-ledger-test-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::create_dir_all(&dir).expect("the test's ledger files");
         // The issuer's life, stopped at the end.
         let issuer = write(
             &dir,
@@ -416,7 +416,7 @@ mod tests {
             life(&adopter, None),
             life(&dir.join("never-written"), Some(0)),
         ];
-        let followed = follow(&lives).unwrap();
+        let followed = follow(&lives).expect("the test's ledger files");
         let ops = &followed.ops;
         // 1 applied once; 2 applied twice; 3 applied and given up; 4 lost; 5 unanswered at
         // the end; 6 answered with its end unlogged; 9 answered by the forwarder, which was
@@ -445,6 +445,6 @@ mod tests {
         assert_eq!(followed.contacts.ended_once, 1);
         assert_eq!(followed.contacts.lost, 1);
         assert_eq!(followed.unreadable_lines, 0);
-        std::fs::remove_dir_all(&dir).unwrap();
+        std::fs::remove_dir_all(&dir).expect("the test's ledger files");
     }
 }
