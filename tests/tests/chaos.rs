@@ -43,6 +43,10 @@ fn assert_held(report: &ChaosReport) {
     assert!(report.injected.garbage_deliveries > 0, "{table}");
     assert!(report.injected.forged_deliveries > 0, "{table}");
     assert!(report.recovery.entities_adopted > 0, "{table}");
+    // The pods' ledgers were written and followed: every routed op is named in them.
+    assert!(report.ops.routed > 0, "{table}");
+    assert!(report.by_name.ops.sent >= report.ops.routed, "{table}");
+    assert!(report.by_name.ops.ended_once > 0, "{table}");
 }
 
 #[test]
