@@ -369,6 +369,10 @@ impl Cluster {
     /// Notes in the ledger an op applied (or dropped) here on `target`, a body this cluster
     /// owns, and where the target was adopted from if this cluster holds it as an adopter.
     fn note_on_body(&mut self, key: OpKey, event: LedgerEvent, target: EntityId) {
+        if self.ledger.is_none() {
+            // No ledger: not even the lookup on the apply path.
+            return;
+        }
         let from = self.adopted.get(&target).copied();
         self.note(key, Carried::Op, event, from);
     }
