@@ -334,7 +334,6 @@ fn a_compare_recording_carries_the_single_world_and_the_page_reads_its_error() {
     let result = seam_bench::accuracy::run_recorded_trial(
         &scene,
         &settings,
-        &run::fresh_run_id(),
         None,
         Some(&out),
     )

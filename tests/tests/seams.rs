@@ -45,12 +45,7 @@ fn scenes() -> Vec<Scene> {
 }
 
 fn trial(scene: &Scene, settings: TrialSettings) -> Accuracy {
-    let run_id = format!(
-        "seams{}{}",
-        std::process::id(),
-        seam_proxy::monotonic_ns() % 1_000_000_007
-    );
-    run_trial(scene, &settings, &run_id, None)
+    run_trial(scene, &settings, None)
         .unwrap_or_else(|e| panic!("{}: {e}", scene.name))
         .accuracy
 }
@@ -158,13 +153,12 @@ fn a_trace_names_an_entity_of_the_scene() {
         ticks: Some(3),
         ..TrialSettings::default()
     };
-    let run_id = format!("trace{}", std::process::id());
     for name in ["runner", "crates-east#7"] {
-        run_trial(crossfire, &settings, &run_id, Some(name))
+        run_trial(crossfire, &settings, Some(name))
             .unwrap_or_else(|e| panic!("{name}: {e}"));
     }
     for name in ["nobody", "crates-east", "crates-east#99"] {
-        let error = run_trial(crossfire, &settings, &run_id, Some(name))
+        let error = run_trial(crossfire, &settings, Some(name))
             .expect_err("an entity the scene does not have");
         assert!(
             error.contains(name) && error.contains("name#i"),

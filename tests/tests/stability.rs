@@ -23,12 +23,7 @@ fn load(name: &str) -> Scene {
 }
 
 fn trial(scene: &Scene, settings: TrialSettings) -> TrialResult {
-    let run_id = format!(
-        "stab{}{}",
-        std::process::id(),
-        seam_proxy::monotonic_ns() % 1_000_000_007
-    );
-    run_trial(scene, &settings, &run_id, None).unwrap_or_else(|e| panic!("trial: {e}"))
+    run_trial(scene, &settings, None).unwrap_or_else(|e| panic!("trial: {e}"))
 }
 
 /// `gallery` with only its scripted hand-offs (none): the shooter simulates each shot all the

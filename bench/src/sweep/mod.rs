@@ -210,8 +210,7 @@ pub fn run(
     };
     for (path, scene) in scenes {
         for trial in &grid.settings(scene, ticks) {
-            let run_id = format!("sweep{}x{}", std::process::id(), results.len());
-            let result = run_trial(scene, trial, &run_id, None)
+            let result = run_trial(scene, trial, None)
                 .map_err(|e| format!("{}: {}: {e}", scene.name, describe(trial)))?;
             report(&mut results, result);
         }

@@ -29,7 +29,7 @@ pub(crate) fn compare(
         progress.status(&format!("{}: split and one world", path.display()));
         let scene = seam_bench::scene::load(path).map_err(|e| e.to_string())?;
         let result =
-            accuracy::run_recorded_trial(&scene, settings, &run::fresh_run_id(), trace, record)?;
+            accuracy::run_recorded_trial(&scene, settings, trace, record)?;
         if let Some(out) = record {
             let size = std::fs::metadata(out).map(|m| m.len()).unwrap_or(0);
             eprintln!(
