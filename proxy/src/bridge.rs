@@ -253,7 +253,7 @@ const MAX_BATCH_BYTES: usize = 8 << 20;
 mod tests {
     use super::*;
     use crate::Region;
-    use crate::config::world_map;
+    use crate::world::world_map;
 
     fn region(x0: f32, z0: f32) -> Region {
         Region {

@@ -227,73 +227,65 @@
 //! # Layout
 //!
 //! - [`prelude`] — what game code imports.
-//! - `cluster` — [`Cluster`] and the order of one tick; beside it, each phase with its own
-//!   file: `receive` (frames in), `liveness` (who is alive, adoption), `reconcile` (frames
-//!   applied: hand-offs, proxies), `routing` (writes queued and applied), `contacts` (reports,
-//!   settling), `publish` (frames out).
-//! - `config` — [`ClusterConfig`], [`Region`], [`WorldCluster`] and [`world_map`], [`ProxyMode`],
-//!   [`CustomProxy`].
-//! - `schedule` — [`Schedule`]: a free-running cluster's ticks on the host's clock, as a pod
-//!   runs them.
-//! - `dead_reckoning` — where a kinematic proxy aims between frames.
-//! - `contact_merge` — each contact once per side.
-//! - `settle` — contacts across the seam end equal and opposite: momentum conserved.
-//! - `prediction` — a push game code routes to an owner is shown on this world's coupled
-//!   proxy in the step it is written.
-//! - `inbox` — frames by sender and step count, for lock-step.
-//! - `interest` — which neighbour entities are modelled: [`extent`] against the region and
-//!   the room around this cluster's own bodies.
-//! - `delivery` — routed ops at least once and applied once: numbers settled per issuer,
-//!   ops unanswered per destination.
-//! - `adoption` — who adopts a dead neighbour's entities.
+//! - `cluster` — [`Cluster`]: the pipeline; `run_tick` lists the phases a tick runs, each a
+//!   call on a part that owns its state:
+//!   - `inbox` — frames in, by sender and tick (for lock-step);
+//!   - `neighbours` — who is alive ([`NeighbourStatus`]), and custody of the dead's entities;
+//!   - `replication` — frames out ([`extent`]-based interest, keyframes) and the world
+//!     reconciled with the neighbours' (proxies, [`CustomProxy`]);
+//!   - `handoff` — hand-offs queued, in transit, released, held early, taken back;
+//!   - `routing` — writes on remote-owned entities, applied once by their owner;
+//!   - `contacts` — contact reports, seam impulses settled, pushes predicted;
+//!   - `delivery` — at least once, applied once, for ops and contact reports alike.
+//! - `events` — [`ClusterEvent`], the one stream every part emits on, and its consumers:
+//!   [`ClusterStats`], [`LedgerEntry`]; [`OpTiming`].
 //! - `authority` — who should own an entity: [`AuthorityPolicy`], the built-in [`Spatial`]
-//!   policy, [`AuthorityMode`].
-//! - `lockstep` — [`lockstep_round`]: N clusters of one process, tick by tick.
-//! - `clock` — the host monotonic clock ([`monotonic_ns`]) and routed-op stage times
-//!   ([`OpTiming`]: issued, published, received, applied).
+//!   policy, [`AuthorityMode`]; who adopts a dead neighbour's entities.
+//! - `config` — [`ClusterConfig`], [`ProxyMode`].
+//! - `world` — [`Region`], [`WorldCluster`] and [`world_map`].
+//! - `runtime` — [`Schedule`] (a free-running cluster's ticks on the host's clock, as a pod
+//!   runs them) and [`lockstep_round`] (N clusters of one process, tick by tick).
+//! - `bridge` — [`Bridge`]: one host's channels passed to and from a Redis server.
+//! - `clock` — the host monotonic clock ([`monotonic_ns`]).
 //! - `channels` — channel names ([`replication`], [`physics_events`]).
-//! - `stats` — [`ClusterStats`].
 //! - `error` — [`ClusterError`].
 
-mod adoption;
 mod authority;
 mod bridge;
 mod channels;
 mod clock;
 mod cluster;
 mod config;
-mod contact_merge;
-mod dead_reckoning;
+mod contacts;
 mod delivery;
 mod error;
+mod events;
+mod handoff;
 mod inbox;
-mod interest;
-mod keyframes;
-mod ledger;
-mod lockstep;
-mod prediction;
-mod schedule;
-mod settle;
-mod stats;
+mod neighbours;
+mod replication;
+mod routing;
+mod runtime;
+mod world;
 
 pub use authority::{
     AuthorityMode, AuthorityPolicy, AuthorityView, NeighbourView, Spatial, SpatialSettings,
 };
 pub use bridge::{Bridge, BridgeRoutes, DirectionCounters, DirectionStats};
 pub use channels::{physics_events, replication};
-pub use clock::{OpTiming, monotonic_ns};
-pub use cluster::{Cluster, DRAIN_S, HandoffEvent, MAX_OP_TIMINGS, NeighbourStatus};
-pub use config::{
-    ClusterConfig, CustomProxy, DEFAULT_KEYFRAME_TICKS, ProxyMode, Region, WorldCluster, world_map,
-};
-pub use contact_merge::MERGE_WINDOW_TICKS;
+pub use clock::monotonic_ns;
+pub use cluster::{Cluster, DRAIN_S};
+pub use config::{ClusterConfig, DEFAULT_KEYFRAME_TICKS, ProxyMode};
+pub use contacts::{HALF_WAITS_TICKS, MERGE_WINDOW_TICKS};
 pub use error::ClusterError;
-pub use interest::extent;
-pub use ledger::{Carried, LedgerEntry, LedgerEvent, parse_cluster};
-pub use lockstep::lockstep_round;
-pub use schedule::{DRAIN_TICKS_UNSCHEDULED, Due, Schedule};
-pub use settle::HALF_WAITS_TICKS;
-pub use stats::ClusterStats;
+pub use events::{
+    Carried, ClusterEvent, ClusterStats, ContactGiveUp, FrameRefusal, LedgerEntry, LedgerEvent,
+    MAX_EVENTS, Name, OpDrop, OpTiming, TickEvent, parse_cluster,
+};
+pub use neighbours::NeighbourStatus;
+pub use replication::{CustomProxy, extent};
+pub use runtime::{DRAIN_TICKS_UNSCHEDULED, Due, Schedule, lockstep_round};
+pub use world::{Region, WorldCluster, world_map};
 
 /// What game code needs to run clusters, in one import: `use seam_proxy::prelude::*;`.
 pub mod prelude {

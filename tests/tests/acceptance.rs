@@ -739,6 +739,7 @@ fn third_cluster_routes_to_the_new_owner(ctx: &TestContext) {
 /// order, on the host clock, and the ticks it took.
 fn routed_ops_carry_their_stage_times(ctx: &TestContext) {
     let mut clusters = pair(ctx, false, |_| {});
+    clusters[0].keep_events();
     let target = ball([0.0; 3], [0.0; 3]);
     clusters[0]
         .spawn_owned(&target, BodyRole::Dynamic)
@@ -758,8 +759,20 @@ fn routed_ops_carry_their_stage_times(ctx: &TestContext) {
     }
     rounds(&mut clusters, 2);
     let after = seam_proxy::monotonic_ns();
-    let timings = clusters[0].take_op_timings();
+    let events = clusters[0].take_events();
+    let timings: Vec<seam_proxy::OpTiming> = events
+        .iter()
+        .filter_map(|e| match e.event {
+            seam_proxy::ClusterEvent::OpApplied { timing, .. } => Some(timing),
+            _ => None,
+        })
+        .collect();
     assert_eq!(timings.len(), 10);
+    assert_eq!(
+        clusters[0].stats().ops_applied,
+        10,
+        "the counters read the same stream"
+    );
     for t in &timings {
         assert!(before <= t.issued_ns, "{t:?}");
         assert!(t.issued_ns <= t.published_ns, "{t:?}");
@@ -769,5 +782,5 @@ fn routed_ops_carry_their_stage_times(ctx: &TestContext) {
         // In lock-step B writes at its tick n, A applies at its tick n + 1.
         assert_eq!(t.applied_tick, t.issued_tick + 1, "{t:?}");
     }
-    assert!(clusters[0].take_op_timings().is_empty(), "taken once");
+    assert!(clusters[0].take_events().is_empty(), "taken once");
 }

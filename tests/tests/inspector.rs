@@ -331,13 +331,8 @@ fn a_compare_recording_carries_the_single_world_and_the_page_reads_its_error() {
     let out = dir.join("crossfire-compare.rec");
     let scene = seam_bench::scene::load(&scene("crossfire")).expect("scene");
     let settings = seam_bench::accuracy::TrialSettings::default();
-    let result = seam_bench::accuracy::run_recorded_trial(
-        &scene,
-        &settings,
-        None,
-        Some(&out),
-    )
-    .expect("the trial runs");
+    let result = seam_bench::accuracy::run_recorded_trial(&scene, &settings, None, Some(&out))
+        .expect("the trial runs");
     let recording = Recording::read(&out).expect("the recording reads back");
     assert_eq!(recording.header.streams, ["west", "east", "reference"]);
     assert_eq!(recording.stream_ticks(2).count() as u64, scene.ticks);

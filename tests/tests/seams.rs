@@ -154,8 +154,7 @@ fn a_trace_names_an_entity_of_the_scene() {
         ..TrialSettings::default()
     };
     for name in ["runner", "crates-east#7"] {
-        run_trial(crossfire, &settings, Some(name))
-            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        run_trial(crossfire, &settings, Some(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
     }
     for name in ["nobody", "crates-east", "crates-east#99"] {
         let error = run_trial(crossfire, &settings, Some(name))

@@ -353,13 +353,10 @@ pub fn run_node(
         None => None,
     };
     let mut ledger = match &args.ledger {
-        Some(path) => {
-            pod.cluster_mut().keep_ledger();
-            Some(
-                LedgerFile::create(path, pod.cluster().id())
-                    .map_err(|e| format!("{}: ledger {}: {e}", pod_name(&part), path.display()))?,
-            )
-        }
+        Some(path) => Some(
+            LedgerFile::create(path, pod.cluster().id())
+                .map_err(|e| format!("{}: ledger {}: {e}", pod_name(&part), path.display()))?,
+        ),
         None => None,
     };
     let ledger_failed = |e: std::io::Error| format!("{}: ledger: {e}", pod_name(&part));
@@ -380,7 +377,7 @@ pub fn run_node(
         pod.tick().map_err(fail)?;
         if let Some(ledger) = &mut ledger {
             ledger
-                .write(&pod.cluster_mut().take_ledger())
+                .write(&ledger_entries(pod.last_events()))
                 .map_err(ledger_failed)?;
         }
         if let Some(recorder) = &mut recorder {
@@ -431,7 +428,7 @@ pub fn run_node(
     // longer) must not take this pod for dead and adopt what it ends the run owning.
     pod.cluster_mut().leave().map_err(fail)?;
     if let Some(ledger) = &mut ledger {
-        let mut last = pod.cluster_mut().take_ledger();
+        let mut last = ledger_entries(&pod.cluster_mut().take_events());
         last.extend(pod.cluster().unanswered_names());
         ledger.write(&last).map_err(ledger_failed)?;
     }
@@ -542,4 +539,12 @@ fn op_counts(s: &seam_proxy::ClusterStats) -> [u64; 7] {
         s.contacts_received,
         s.contacts_acked + s.contacts_given_up + s.contacts_own_now,
     ]
+}
+
+/// The ledger entries among `events` (see `seam_proxy::LedgerEntry::from_event`).
+fn ledger_entries(events: &[seam_proxy::TickEvent]) -> Vec<seam_proxy::LedgerEntry> {
+    events
+        .iter()
+        .filter_map(|e| seam_proxy::LedgerEntry::from_event(e.tick, &e.event))
+        .collect()
 }

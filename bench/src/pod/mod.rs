@@ -23,7 +23,8 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use std::time::Duration;
 
 use seam_proxy::{
-    AuthorityMode, Cluster, ClusterConfig, ClusterError, ProxyMode, Region, WorldCluster, world_map,
+    AuthorityMode, Cluster, ClusterConfig, ClusterError, ClusterEvent, ProxyMode, Region,
+    TickEvent, WorldCluster, world_map,
 };
 use seam_sim::BodyRole;
 use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape, StateEncoding};
@@ -133,10 +134,8 @@ pub struct Pod {
     stages_by_sender: BTreeMap<ClusterId, OpStages>,
     /// Authority flips seen, when asked for.
     flips: Option<flips::FlipLog>,
-    /// The routed ops applied in the last tick.
-    last_ops: Vec<seam_proxy::OpTiming>,
-    /// The hand-offs taken and given in the last tick.
-    last_handoffs: Vec<seam_proxy::HandoffEvent>,
+    /// What the cluster did in its last tick (and since the tick before).
+    last_events: Vec<TickEvent>,
     /// Scene name of every cluster, by id.
     cluster_names: HashMap<ClusterId, String>,
     owned_at_start: usize,
@@ -274,6 +273,8 @@ impl Pod {
         config.max_linear_velocity = scene.max_speed;
         config.neighbour_timeout_ticks = settings.neighbour_timeout_ticks;
         let mut cluster = Cluster::new(config)?;
+        // A pod reads its cluster's events after every tick: op timings, hand-offs, ledgers.
+        cluster.keep_events();
 
         let mut entities: HashMap<String, Vec<EntityId>> = HashMap::new();
         let mut owned_at_start = 0;
@@ -340,8 +341,7 @@ impl Pod {
             stages: OpStages::default(),
             stages_by_sender: BTreeMap::new(),
             flips: settings.track_flips.then(flips::FlipLog::default),
-            last_ops: Vec::new(),
-            last_handoffs: Vec::new(),
+            last_events: Vec::new(),
             cluster_names,
             owned_at_start,
             fired: Vec::new(),
@@ -465,15 +465,11 @@ impl Pod {
         self.flips.as_ref().map_or(&[], |f| f.records.as_slice())
     }
 
-    /// The routed ops this pod applied in its last tick.
-    pub fn last_ops(&self) -> &[seam_proxy::OpTiming] {
-        &self.last_ops
-    }
-
-    /// The hand-offs this pod took and gave in its last tick (one taken and given back within
-    /// the tick included).
-    pub fn last_handoffs(&self) -> &[seam_proxy::HandoffEvent] {
-        &self.last_handoffs
+    /// What this pod's cluster did in its last tick, and between it and the tick before: the
+    /// routed ops it applied, the hand-offs it took and gave (one taken and given back within
+    /// the tick included), every op and report by name (see `seam_proxy::ClusterEvent`).
+    pub fn last_events(&self) -> &[TickEvent] {
+        &self.last_events
     }
 
     /// Stage times of the routed ops this pod applied so far.
@@ -666,14 +662,15 @@ impl Pod {
         if let Some(flips) = &mut self.flips {
             flips.observe(self.cluster.sim(), self.cluster.id());
         }
-        self.last_ops = self.cluster.take_op_timings();
-        self.last_handoffs = self.cluster.take_handoffs();
-        for timing in &self.last_ops {
-            self.stages.record(timing);
-            self.stages_by_sender
-                .entry(timing.from)
-                .or_default()
-                .record(timing);
+        self.last_events = self.cluster.take_events();
+        for event in &self.last_events {
+            if let ClusterEvent::OpApplied { timing, .. } = &event.event {
+                self.stages.record(timing);
+                self.stages_by_sender
+                    .entry(timing.from)
+                    .or_default()
+                    .record(timing);
+            }
         }
         if self.all_projectiles.is_empty() {
             return;

@@ -5,6 +5,7 @@ use std::io::{BufWriter, Write};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use seam_proxy::ClusterEvent;
 use seam_sim::wire::ClusterId;
 
 use super::{
@@ -116,7 +117,10 @@ impl<W: Write> PodRecorder<W> {
         }
         chunk.owned.sort_unstable_by_key(|p| p.entity);
         chunk.proxies.sort_unstable();
-        for op in pod.last_ops() {
+        for op in pod.last_events().iter().filter_map(|e| match &e.event {
+            ClusterEvent::OpApplied { timing, .. } => Some(timing),
+            _ => None,
+        }) {
             let Some(&target) = self.table.entities.get(&op.target) else {
                 self.unknown += 1;
                 continue;
@@ -144,12 +148,13 @@ impl<W: Write> PodRecorder<W> {
                 reporter: self.stream_of(reporter),
             });
         }
-        for h in pod.last_handoffs() {
-            match self.table.entities.get(&h.entity) {
-                Some(&entity) => chunk.handoffs.push(RecordedHandoff {
-                    entity,
-                    taken: h.taken,
-                }),
+        for (entity, taken) in pod.last_events().iter().filter_map(|e| match e.event {
+            ClusterEvent::HandoffTaken { entity, .. } => Some((entity, true)),
+            ClusterEvent::HandoffGiven { entity, .. } => Some((entity, false)),
+            _ => None,
+        }) {
+            match self.table.entities.get(&entity) {
+                Some(&entity) => chunk.handoffs.push(RecordedHandoff { entity, taken }),
                 None => self.unknown += 1,
             }
         }

@@ -28,8 +28,7 @@ pub(crate) fn compare(
     for path in scenes {
         progress.status(&format!("{}: split and one world", path.display()));
         let scene = seam_bench::scene::load(path).map_err(|e| e.to_string())?;
-        let result =
-            accuracy::run_recorded_trial(&scene, settings, trace, record)?;
+        let result = accuracy::run_recorded_trial(&scene, settings, trace, record)?;
         if let Some(out) = record {
             let size = std::fs::metadata(out).map(|m| m.len()).unwrap_or(0);
             eprintln!(

@@ -1,169 +1,59 @@
-//! Routed ops delivered at least once and applied once: the numbers an owner has settled, per
-//! issuer ([`Settled`]), and the ops a sender has not had answered yet ([`Unanswered`]).
-//! Contact reports travel the same way: numbered from the same counter, answered in the same
-//! answers, surfaced once.
+//! The sender's side: what this cluster has sent and not had answered ([`Outstanding`]).
 //!
-//! Every op is named by its issuer and the issuer's number for it ([`OpKey`]). A sender keeps
-//! each op it sends (issued here, or taken on to forward) until the receiver answers it in an
-//! events frame ([`seam_sim::wire::OpAck`]), and sends it again every `op_retry_ticks` to the
-//! cluster it then knows to own the target, until the op is older than `max_op_age_ticks`. A
-//! receiver settles each name once: it remembers the last [`WINDOW`] numbers of each issuer,
-//! answers a repeat without applying it, and drops (counted) a number older than that, which
-//! it can no longer tell from a repeat.
+//! A sender keeps each item it sends (an op issued here or taken on to forward, a contact
+//! report) until the receiver answers it in an events frame ([`seam_sim::wire::OpAck`]), and
+//! sends it again every `op_retry_ticks` to the cluster it then knows to be the right one
+//! (see `super::Outbound`).
 
 use seam_sim::wire::{ClusterId, ContactReport, IdMap, RoutedOp};
 
-/// Numbers of one issuer an owner remembers: the newest it has seen and the 16 383 before (2 KiB
-/// per issuer). An issuer numbers all its ops from one counter, so a repeat is told apart as
-/// long as the issuer sends fewer than this many ops within one op's lifetime
-/// (`max_op_age_ticks`).
-pub(crate) const WINDOW: u64 = 16_384;
-
-/// Issuers an owner remembers numbers of (512 KiB at most); the one heard from least lately is
-/// forgotten first, counted.
-pub(crate) const MAX_ISSUERS: usize = 256;
+use crate::events::Name;
 
 /// Ops a sender keeps unanswered per destination; more are dropped, counted.
 pub(crate) const MAX_UNANSWERED: usize = 4096;
 
-/// An op's name: its issuer and the issuer's number for it.
-pub(crate) type OpKey = (ClusterId, u64);
-
-/// What an owner makes of an op's number.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Verdict {
-    /// Not settled here before.
-    New,
-    /// Settled here before: answer it again, do not apply it.
-    Repeat,
-    /// Older than the window: it cannot be told from a repeat, so it is dropped.
-    TooOld,
-}
-
-/// One issuer's window: bit `seq % WINDOW` is set when `seq` (within `WINDOW` of `newest`) has
-/// been settled.
-#[derive(Debug, Clone)]
-struct Window {
-    newest: u64,
-    bits: [u64; (WINDOW / 64) as usize],
-    touched: u64,
-}
-
-impl Window {
-    fn new(seq: u64, touched: u64) -> Self {
-        Self {
-            newest: seq,
-            bits: [0; (WINDOW / 64) as usize],
-            touched,
-        }
-    }
-
-    fn bit(seq: u64) -> (usize, u64) {
-        let at = seq % WINDOW;
-        ((at / 64) as usize, 1 << (at % 64))
-    }
-
-    fn verdict(&self, seq: u64) -> Verdict {
-        if seq > self.newest {
-            return Verdict::New;
-        }
-        if self.newest - seq >= WINDOW {
-            return Verdict::TooOld;
-        }
-        let (word, mask) = Self::bit(seq);
-        if self.bits[word] & mask != 0 {
-            Verdict::Repeat
-        } else {
-            Verdict::New
-        }
-    }
-
-    fn settle(&mut self, seq: u64) {
-        if seq > self.newest {
-            // Slide: the numbers passed over have not been seen.
-            let gap = seq - self.newest;
-            if gap >= WINDOW {
-                self.bits = [0; (WINDOW / 64) as usize];
-            } else {
-                for passed in self.newest + 1..=seq {
-                    let (word, mask) = Self::bit(passed);
-                    self.bits[word] &= !mask;
-                }
-            }
-            self.newest = seq;
-        }
-        let (word, mask) = Self::bit(seq);
-        self.bits[word] |= mask;
-    }
-}
-
-/// The op numbers this cluster has settled, per issuer.
-#[derive(Debug, Default)]
-pub(crate) struct Settled {
-    windows: IdMap<ClusterId, Window>,
-    /// Counts settlements, to tell which window was touched least lately.
-    clock: u64,
-    /// Windows forgotten to make room.
-    pub(crate) forgotten: u64,
-}
-
-impl Settled {
-    /// What `key` is here.
-    pub(crate) fn verdict(&self, key: OpKey) -> Verdict {
-        self.windows
-            .get(&key.0)
-            .map_or(Verdict::New, |w| w.verdict(key.1))
-    }
-
-    /// Marks `key` settled: applied, dropped for good, or taken on to forward.
-    pub(crate) fn settle(&mut self, key: OpKey) {
-        self.clock += 1;
-        let clock = self.clock;
-        if !self.windows.contains_key(&key.0) && self.windows.len() >= MAX_ISSUERS {
-            let stalest = self
-                .windows
-                .iter()
-                .min_by_key(|(_, w)| w.touched)
-                .map(|(&id, _)| id);
-            if let Some(stalest) = stalest {
-                self.windows.swap_remove(&stalest);
-                self.forgotten += 1;
-            }
-        }
-        let window = self
-            .windows
-            .entry(key.0)
-            .or_insert_with(|| Window::new(key.1, clock));
-        window.touched = clock;
-        window.settle(key.1);
-    }
-}
-
 /// What a sender keeps until it is answered: a routed op or a contact report.
 pub(crate) trait Numbered: Copy {
     /// Its name, sent by cluster `me` (a forwarded op keeps its issuer's).
-    fn name(&self, me: ClusterId) -> OpKey;
+    fn name(&self, me: ClusterId) -> Name;
     /// Its age when sent.
     fn age_ticks(&self) -> u32;
+    /// What is sent again for it, named `name`, at `age` (cluster `me` sending).
+    fn resent(&self, me: ClusterId, name: Name, age: u64) -> Self;
 }
 
 impl Numbered for RoutedOp {
-    fn name(&self, me: ClusterId) -> OpKey {
-        (self.issuer.unwrap_or(me), self.seq)
+    fn name(&self, me: ClusterId) -> Name {
+        Name::new(self.issuer.unwrap_or(me), self.seq)
     }
 
     fn age_ticks(&self) -> u32 {
         self.age_ticks
+    }
+
+    fn resent(&self, me: ClusterId, name: Name, age: u64) -> Self {
+        RoutedOp {
+            issuer: (name.issuer != me).then_some(name.issuer),
+            age_ticks: u32::try_from(age).unwrap_or(u32::MAX),
+            ..*self
+        }
     }
 }
 
 impl Numbered for ContactReport {
-    fn name(&self, me: ClusterId) -> OpKey {
-        (me, self.seq)
+    fn name(&self, me: ClusterId) -> Name {
+        Name::new(me, self.seq)
     }
 
     fn age_ticks(&self) -> u32 {
         self.age_ticks
+    }
+
+    fn resent(&self, _me: ClusterId, _name: Name, age: u64) -> Self {
+        ContactReport {
+            age_ticks: u32::try_from(age).unwrap_or(u32::MAX),
+            ..*self
+        }
     }
 }
 
@@ -172,9 +62,9 @@ pub(crate) struct Kept<T> {
     /// The items to send: those kept now or before.
     pub(crate) send: Vec<T>,
     /// Names sent for the first time and kept.
-    pub(crate) new: Vec<OpKey>,
+    pub(crate) new: Vec<Name>,
     /// Names sent for the first time with no room to keep them: not sent, given up.
-    pub(crate) refused: Vec<OpKey>,
+    pub(crate) refused: Vec<Name>,
 }
 
 /// An op (or contact report) sent and not answered yet.
@@ -204,7 +94,7 @@ impl<T> Unanswered<T> {
 /// The ops (or contact reports) this cluster has sent and not had answered, by name.
 #[derive(Debug)]
 pub(crate) struct Outstanding<T> {
-    ops: IdMap<OpKey, Unanswered<T>>,
+    ops: IdMap<Name, Unanswered<T>>,
     per_destination: IdMap<ClusterId, usize>,
 }
 
@@ -224,13 +114,13 @@ impl<T: Copy> Outstanding<T> {
     }
 
     /// Whether `key` is kept.
-    pub(crate) fn contains(&self, key: OpKey) -> bool {
+    pub(crate) fn contains(&self, key: Name) -> bool {
         self.ops.contains_key(&key)
     }
 
     /// Keeps an op just sent (or meant) for `op.to`; `false` when that destination already has
     /// [`MAX_UNANSWERED`] (the op is not kept: the caller counts it dropped).
-    pub(crate) fn keep(&mut self, key: OpKey, op: Unanswered<T>) -> bool {
+    pub(crate) fn keep(&mut self, key: Name, op: Unanswered<T>) -> bool {
         if let Some(old) = self.ops.get_mut(&key) {
             let was = old.to;
             *old = op;
@@ -260,14 +150,14 @@ impl<T: Copy> Outstanding<T> {
     }
 
     /// Takes `key` out (answered, or given up); `None` if it was not kept.
-    pub(crate) fn take(&mut self, key: OpKey) -> Option<Unanswered<T>> {
+    pub(crate) fn take(&mut self, key: Name) -> Option<Unanswered<T>> {
         let op = self.ops.swap_remove(&key)?;
         self.forget_one(op.to);
         Some(op)
     }
 
     /// Makes `key` due at `tick` at the latest; `false` if it is not kept.
-    pub(crate) fn due_at(&mut self, key: OpKey, tick: u64) -> bool {
+    pub(crate) fn due_at(&mut self, key: Name, tick: u64) -> bool {
         match self.ops.get_mut(&key) {
             Some(op) => {
                 op.due_tick = op.due_tick.min(tick);
@@ -278,7 +168,7 @@ impl<T: Copy> Outstanding<T> {
     }
 
     /// Notes that the receiver answered `key` "not here", and makes it due at `tick`.
-    pub(crate) fn returned(&mut self, key: OpKey, tick: u64) {
+    pub(crate) fn returned(&mut self, key: Name, tick: u64) {
         if let Some(op) = self.ops.get_mut(&key) {
             op.returned = true;
             op.due_tick = op.due_tick.min(tick);
@@ -328,13 +218,13 @@ impl<T: Copy> Outstanding<T> {
     }
 
     /// The names of the ops kept.
-    pub(crate) fn names(&self) -> impl Iterator<Item = OpKey> + '_ {
+    pub(crate) fn names(&self) -> impl Iterator<Item = Name> + '_ {
         self.ops.keys().copied()
     }
 
     /// Takes the ops due at `tick` (to be sent again or given up).
-    pub(crate) fn take_due(&mut self, tick: u64) -> Vec<(OpKey, Unanswered<T>)> {
-        let due: Vec<OpKey> = self
+    pub(crate) fn take_due(&mut self, tick: u64) -> Vec<(Name, Unanswered<T>)> {
+        let due: Vec<Name> = self
             .ops
             .iter()
             .filter(|(_, op)| op.due_tick <= tick)
@@ -352,70 +242,6 @@ mod tests {
 
     fn issuer() -> ClusterId {
         ClusterId::from_u128(1)
-    }
-
-    #[test]
-    fn a_number_is_settled_once_and_a_repeat_is_seen() {
-        let mut settled = Settled::default();
-        let key = (issuer(), 5_000);
-        assert_eq!(settled.verdict(key), Verdict::New);
-        settled.settle(key);
-        assert_eq!(settled.verdict(key), Verdict::Repeat);
-        // Numbers around it, older and newer, are still new.
-        assert_eq!(settled.verdict((issuer(), 4_999)), Verdict::New);
-        assert_eq!(settled.verdict((issuer(), 5_001)), Verdict::New);
-        // Another issuer's same number is another op.
-        assert_eq!(
-            settled.verdict((ClusterId::from_u128(2), 5_000)),
-            Verdict::New
-        );
-    }
-
-    #[test]
-    fn the_window_slides_and_what_falls_out_is_too_old_never_new() {
-        let mut settled = Settled::default();
-        for seq in 0..3 * WINDOW {
-            if seq % 3 != 0 {
-                settled.settle((issuer(), seq));
-            }
-        }
-        let newest = 3 * WINDOW - 1;
-        for seq in 0..=newest {
-            let verdict = settled.verdict((issuer(), seq));
-            let expected = if newest - seq >= WINDOW {
-                Verdict::TooOld
-            } else if seq % 3 != 0 {
-                Verdict::Repeat
-            } else {
-                Verdict::New
-            };
-            assert_eq!(verdict, expected, "seq {seq}");
-        }
-        // A jump further than the window clears it.
-        settled.settle((issuer(), newest + 10 * WINDOW));
-        assert_eq!(settled.verdict((issuer(), newest)), Verdict::TooOld);
-        assert_eq!(
-            settled.verdict((issuer(), newest + 10 * WINDOW - 1)),
-            Verdict::New
-        );
-    }
-
-    #[test]
-    fn issuers_past_the_limit_forget_the_least_lately_heard() {
-        let mut settled = Settled::default();
-        for n in 0..MAX_ISSUERS as u128 + 1 {
-            settled.settle((ClusterId::from_u128(n + 10), 1));
-        }
-        assert_eq!(settled.forgotten, 1);
-        assert_eq!(
-            settled.verdict((ClusterId::from_u128(10), 1)),
-            Verdict::New,
-            "the first issuer was forgotten"
-        );
-        assert_eq!(
-            settled.verdict((ClusterId::from_u128(11), 1)),
-            Verdict::Repeat
-        );
     }
 
     fn unanswered(to: u128, due_tick: u64) -> Unanswered<RoutedOp> {
@@ -441,26 +267,26 @@ mod tests {
     fn outstanding_ops_are_bounded_per_destination_and_taken_when_due() {
         let mut outstanding = Outstanding::default();
         for seq in 0..MAX_UNANSWERED as u64 {
-            assert!(outstanding.keep((issuer(), seq), unanswered(2, 10 + seq % 2)));
+            assert!(outstanding.keep(Name::new(issuer(), seq), unanswered(2, 10 + seq % 2)));
         }
         assert!(
-            !outstanding.keep((issuer(), u64::MAX), unanswered(2, 10)),
+            !outstanding.keep(Name::new(issuer(), u64::MAX), unanswered(2, 10)),
             "full for cluster 2"
         );
-        assert!(outstanding.keep((issuer(), u64::MAX), unanswered(3, 10)));
+        assert!(outstanding.keep(Name::new(issuer(), u64::MAX), unanswered(3, 10)));
         // Moving one to cluster 3 makes room for cluster 2.
-        assert!(outstanding.keep((issuer(), 0), unanswered(3, 10)));
-        assert!(outstanding.keep((issuer(), u64::MAX - 1), unanswered(2, 10)));
+        assert!(outstanding.keep(Name::new(issuer(), 0), unanswered(3, 10)));
+        assert!(outstanding.keep(Name::new(issuer(), u64::MAX - 1), unanswered(2, 10)));
         let due = outstanding.take_due(10);
         assert_eq!(due.len(), MAX_UNANSWERED / 2 + 2, "every op due at tick 10");
         assert!(due.iter().all(|(_, op)| op.due_tick <= 10));
         assert_eq!(outstanding.len(), MAX_UNANSWERED / 2);
-        assert!(outstanding.due_at((issuer(), 1), 10));
-        outstanding.returned((issuer(), 3), 10);
+        assert!(outstanding.due_at(Name::new(issuer(), 1), 10));
+        outstanding.returned(Name::new(issuer(), 3), 10);
         let due = outstanding.take_due(10);
         assert_eq!(due.len(), 2);
-        assert!(due.iter().any(|(key, op)| key.1 == 3 && op.returned));
-        assert!(outstanding.take((issuer(), 1)).is_none());
+        assert!(due.iter().any(|(key, op)| key.seq == 3 && op.returned));
+        assert!(outstanding.take(Name::new(issuer(), 1)).is_none());
     }
 
     #[test]
@@ -481,7 +307,7 @@ mod tests {
         let mut outstanding = Outstanding::default();
         let kept = outstanding.keep_sent(me, to, vec![op(1), op(2)], 100, 10);
         assert_eq!(kept.send.len(), 2);
-        assert_eq!(kept.new, vec![(me, 1), (me, 2)]);
+        assert_eq!(kept.new, vec![Name::new(me, 1), Name::new(me, 2)]);
         assert!(kept.refused.is_empty());
         // Its age counts from before it came: due 10 ticks on, born 4 ticks back.
         let due = outstanding.take_due(110);
@@ -500,13 +326,13 @@ mod tests {
         };
         let kept = outstanding.keep_sent(me, to, vec![op(1), forwarded], 111, 10);
         assert_eq!(kept.send.len(), 2);
-        assert_eq!(kept.new, vec![(ClusterId::from_u128(5), 1)]);
+        assert_eq!(kept.new, vec![Name::new(ClusterId::from_u128(5), 1)]);
         // Past the bound for one destination: refused, not sent.
         for seq in 1_000..1_000 + MAX_UNANSWERED as u64 {
-            outstanding.keep((me, seq), unanswered(2, 200));
+            outstanding.keep(Name::new(me, seq), unanswered(2, 200));
         }
         let kept = outstanding.keep_sent(me, to, vec![op(7)], 112, 10);
         assert!(kept.send.is_empty() && kept.new.is_empty());
-        assert_eq!(kept.refused, vec![(me, 7)]);
+        assert_eq!(kept.refused, vec![Name::new(me, 7)]);
     }
 }

@@ -1,97 +1,20 @@
-//! Who should own an entity: the policy an owner asks at each replication frame.
-//!
-//! An owner hands an entity over by [`Cluster::transfer_authority`](crate::Cluster) (scripted:
-//! game code decides) or because its [`AuthorityPolicy`] says so — the hook where an affinity
-//! system plugs in. The policy is asked at every replication frame with the dynamic bodies the
-//! cluster owns and their states, and names the hand-offs to make in that frame; the cluster
-//! makes those that are valid (to a live neighbour) and that no scripted hand-off already
-//! claims.
-//!
-//! The built-in [`Spatial`] policy makes authority follow its entities through the world:
-//!
-//! > An entity whose centre — where its velocity carries it by the next replication frame — is
-//! > more than `margin` outside its owner's region is handed to the live neighbour whose
-//! > region holds that point at least `margin` deep; if none does (a fast body that overshot a
-//! > neighbour, or one that left every region), to the live neighbour whose region is nearest
-//! > to it, if that is nearer than the owner's by more than `margin`. The same answer must
-//! > hold `dwell_ticks` frames in a row.
-//!
-//! Looking ahead matters for fast bodies: the step in which a shot crosses a seam is then
-//! simulated by the cluster it enters, which owns what it is about to hit there (a shot
-//! handed over only after it crossed has already met the next region's bodies as proxies in
-//! its old owner's world). For slow bodies the look-ahead is a few millimetres.
-//!
-//! The margin is the hysteresis: a body resting on a seam, or jittering across it, stays where
-//! it is, and one handed over must come back `margin` deep before it returns. Ownership goes by
-//! the centre, not the extent (`crate::interest`): a body lies in one region by its centre,
-//! while its extent can reach into several, and the owner models the room around a body of
-//! its that is outside its region, so nothing is missed while it is within the margin.
-//!
-//! The defaults — a margin of 0.25 m, one frame — were chosen by measurement on the bundled
-//! scenes (`seam compare SCENE --ticks 600 --handoff-margin M --handoff-dwell D`): a dwell of 3
-//! frames hands `crossfire`'s shot to the targets' cluster too late (hit recall 0.667 against
-//! 1.000, and a 2.5 m/s jump at the hand-off); a margin of 1 m leaves crates resting just past
-//! the seam with the cluster that does not model what lies beyond them (`stacks`: RMS 3.3 cm
-//! against 1.5 cm); below 0.25 m a ball pressed against the seam on `grid` changes hands back
-//! and forth (3 hand-offs at 0 m, 1 at 0.1 m, none at 0.25–1 m), each without gain. Margins
-//! from 0 to 0.5 m and a dwell of 1 leave every other figure as it is.
-//!
-//! Only dynamic bodies are handed over by a policy: a Fixed or kinematic body's role is its
-//! owner's to keep (the wire carries no role; a new owner simulates what it takes over).
+//! The built-in policy: authority follows entities through the world's regions (see the
+//! module docs of `crate::authority`).
 
 use std::collections::HashMap;
 
 use seam_sim::BodyRole;
-use seam_sim::wire::{ClusterId, EntityId, EntityState};
+use seam_sim::wire::{ClusterId, EntityId};
 
-use crate::config::Region;
-
-/// What a policy sees at one replication frame.
-pub struct AuthorityView<'a> {
-    /// The asking cluster (the owner).
-    pub cluster: ClusterId,
-    /// Its tick.
-    pub tick: u64,
-    /// Its region.
-    pub region: Region,
-    /// Seconds until the next replication frame (`dt` × `replication_interval`): a hand-off
-    /// made now takes effect at the next step, and the next chance to make one is that far
-    /// away.
-    pub lookahead_s: f32,
-    /// Its neighbours: the only clusters it can hand to.
-    pub neighbours: &'a [NeighbourView],
-    /// The entities it owns, with their states (as its replication frame carries them) and
-    /// roles.
-    pub owned: &'a [(EntityState, BodyRole)],
-}
-
-/// A neighbour, as a policy sees it.
+use super::policy::{AuthorityPolicy, AuthorityView};
+/// The settings of [`Spatial`].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NeighbourView {
-    /// The neighbour.
-    pub id: ClusterId,
-    /// Its region, if the cluster was told it (`ClusterConfig::world`).
-    pub region: Option<Region>,
-    /// Whether it is taken for alive (hand-offs to a neighbour taken for dead are refused).
-    pub alive: bool,
-}
-
-/// Decides hand-offs for the owner. See the module docs.
-pub trait AuthorityPolicy {
-    /// Appends to `handoffs` the entities to hand over in this frame, and to whom.
-    fn decide(&mut self, view: &AuthorityView<'_>, handoffs: &mut Vec<(EntityId, ClusterId)>);
-}
-
-/// How a cluster decides hand-offs besides those game code asks for.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum AuthorityMode {
-    /// Only scripted hand-offs ([`Cluster::transfer_authority`](crate::Cluster)).
-    Scripted,
-    /// [`Spatial`] with these settings (the default). Needs the neighbours' regions from
-    /// `ClusterConfig::world`; without them nothing is handed over.
-    Spatial(SpatialSettings),
-    /// A policy set with [`Cluster::set_authority_policy`](crate::Cluster) (none set: scripted).
-    Custom,
+pub struct SpatialSettings {
+    /// How far past a seam, metres, a body's centre must be before it is handed over (and
+    /// before it comes back).
+    pub margin: f32,
+    /// Frames in a row the same answer must hold (1: at once).
+    pub dwell_ticks: u32,
 }
 
 impl Default for SpatialSettings {
@@ -101,29 +24,6 @@ impl Default for SpatialSettings {
             dwell_ticks: 1,
         }
     }
-}
-
-impl AuthorityMode {
-    /// [`Spatial`] with its default settings.
-    pub fn spatial() -> Self {
-        AuthorityMode::Spatial(SpatialSettings::default())
-    }
-}
-
-impl Default for AuthorityMode {
-    fn default() -> Self {
-        AuthorityMode::spatial()
-    }
-}
-
-/// The settings of [`Spatial`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SpatialSettings {
-    /// How far past a seam, metres, a body's centre must be before it is handed over (and
-    /// before it comes back).
-    pub margin: f32,
-    /// Frames in a row the same answer must hold (1: at once).
-    pub dwell_ticks: u32,
 }
 
 /// Authority follows entities through the world's regions (see the module docs).
@@ -195,9 +95,11 @@ impl AuthorityPolicy for Spatial {
 
 #[cfg(test)]
 mod tests {
-    use seam_sim::wire::{BodySpec, Shape};
+    use seam_sim::wire::{BodySpec, EntityState, Shape};
 
     use super::*;
+    use crate::authority::NeighbourView;
+    use crate::world::Region;
 
     fn region(x0: f32, x1: f32) -> Region {
         Region {

@@ -16,7 +16,7 @@
 
 use seam_sim::wire::ClusterId;
 
-use crate::config::WorldCluster;
+use crate::world::WorldCluster;
 
 /// The cluster that adopts an entity of `dead` last seen at `position`, or `None` if the world
 /// map does not know `dead` or no candidate is alive. `alive` says whether a candidate is taken
@@ -39,7 +39,7 @@ pub(crate) fn adopter(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::Region;
+    use crate::world::Region;
 
     fn region(x0: f32, x1: f32) -> Region {
         Region {

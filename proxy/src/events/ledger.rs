@@ -1,9 +1,10 @@
 //! A ledger of what became of each routed op and contact report, by name, as one cluster saw
-//! it. The counters in [`crate::ClusterStats`] say how many ops were applied, dropped or given
-//! up; the ledger says which. It is kept only when asked for ([`crate::Cluster::keep_ledger`]):
-//! a harness that gathers the ledgers of every pod of a run can follow each name from its
-//! first send to its end, and tell an op applied twice, or lost, from two outcomes counted for
-//! one op (`seam chaos` does).
+//! it: the events of the stream that name one, each as a [`LedgerEntry`]
+//! ([`LedgerEntry::from_event`]). The counters in [`ClusterStats`](super::ClusterStats) say
+//! how many ops were applied, dropped or given up; the ledger says which. A harness that
+//! keeps every pod's events of a run (`crate::Cluster::keep_events`) can follow each name from
+//! its first send to its end, and tell an op applied twice, or lost, from two outcomes counted
+//! for one op (`seam chaos` does).
 //!
 //! A name is its issuer and the issuer's number for it (ops and contact reports of one issuer
 //! share the counter, so a name is one or the other). Events of a name, across clusters:
@@ -19,7 +20,7 @@
 //!   room in the queue) or [`LedgerEvent::GivenUp`] (by its sender: unanswered past answering,
 //!   or for a report, nobody left to tell or the pair its own now);
 //! - [`LedgerEvent::Unanswered`]: still in a sender's hands when it stopped
-//!   ([`crate::Cluster::unanswered_names`], written by the harness at the end).
+//!   (`crate::Cluster::unanswered_names`, written by the harness at the end).
 //!
 //! An op applied to a body this cluster adopted from a neighbour taken for dead says so
 //! ([`LedgerEntry::adopted_from`]): when that neighbour was only stalled, it keeps its own copy
@@ -28,6 +29,8 @@
 //! dropped. Only an application to a copy that lives on counts.
 
 use seam_sim::wire::ClusterId;
+
+use super::event::{ClusterEvent, Name, OpDrop};
 
 /// What a name stands for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -112,6 +115,45 @@ pub struct LedgerEntry {
 }
 
 impl LedgerEntry {
+    /// The entry for `event`, kept at `tick`, if it names an op or a contact report and is
+    /// one of a name's steps (see the module docs).
+    pub fn from_event(tick: u64, event: &ClusterEvent) -> Option<LedgerEntry> {
+        use ClusterEvent as E;
+        let (name, carried, event, adopted_from): (Name, _, _, _) = match *event {
+            E::OpSent { name, .. } => (name, Carried::Op, LedgerEvent::Sent, None),
+            E::OpAnswered { name } => (name, Carried::Op, LedgerEvent::Answered, None),
+            E::OpApplied {
+                name, adopted_from, ..
+            } => (name, Carried::Op, LedgerEvent::Applied, adopted_from),
+            E::OpDropped {
+                name,
+                reason,
+                adopted_from,
+            } => {
+                let event = match reason {
+                    OpDrop::Stale => LedgerEvent::Stale,
+                    OpDrop::Expired => LedgerEvent::GivenUp,
+                    _ => LedgerEvent::Dropped,
+                };
+                (name, Carried::Op, event, adopted_from)
+            }
+            E::ContactReported { name } => (name, Carried::Contact, LedgerEvent::Sent, None),
+            E::ContactAnswered { name } => (name, Carried::Contact, LedgerEvent::Answered, None),
+            E::ContactDelivered { name } => (name, Carried::Contact, LedgerEvent::Applied, None),
+            E::ContactStale { name } => (name, Carried::Contact, LedgerEvent::Stale, None),
+            E::ContactGivenUp { name, .. } => (name, Carried::Contact, LedgerEvent::GivenUp, None),
+            _ => return None,
+        };
+        Some(LedgerEntry {
+            tick,
+            issuer: name.issuer,
+            seq: name.seq,
+            carried,
+            event,
+            adopted_from,
+        })
+    }
+
     /// The entry as one line of text (no newline): `tick event op|contact issuer seq`, then
     /// `adopted-from` if there is one; clusters as 32 hex digits.
     pub fn line(&self) -> String {

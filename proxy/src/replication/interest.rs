@@ -17,13 +17,13 @@
 //! raycast), which the spread alone may not cover.
 //!
 //! Whether an entity is *owned* somewhere is decided on its centre instead (see
-//! `crate::authority` and `crate::adoption`): ownership is one cluster's, and an extent can lie
+//! `crate::authority` and `crate::authority::adoption`): ownership is one cluster's, and an extent can lie
 //! in several regions at once.
 
 use seam_sim::box_grid::BoxGrid;
 use seam_sim::wire::{EntityState, Shape};
 
-use crate::config::Region;
+use crate::world::Region;
 
 /// The box `state`'s shape covers at its pose, grown along its linear velocity by the way it
 /// moves in `sweep_s` seconds (rotation during the sweep is left out: the box already holds

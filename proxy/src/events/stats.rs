@@ -1,4 +1,6 @@
-//! What a cluster counts.
+//! What a cluster counts: [`ClusterStats`], a consumer of the event stream.
+
+use super::event::{ClusterEvent, ContactGiveUp, FrameRefusal, OpDrop};
 
 /// Declares the counters and their sum together, so a counter added to the struct is summed
 /// too.
@@ -110,14 +112,8 @@ pub struct ClusterStats {
     /// States ignored: sent by a cluster that is not the entity's owner, invalid, or beyond
     /// `ClusterConfig::max_magnitude`.
     pub states_rejected: u64,
-    /// Op timings not kept because the caller did not take them (see `Cluster::take_op_timings`).
-    pub op_timings_dropped: u64,
-    /// Hand-offs not kept in the log because the caller did not take them (see
-    /// `Cluster::take_handoffs`).
-    pub handoff_log_dropped: u64,
-    /// Ledger entries not kept because the caller did not take them (see
-    /// `Cluster::take_ledger`).
-    pub ledger_dropped: u64,
+    /// Events not kept because the caller did not take them (see `Cluster::take_events`).
+    pub events_dropped: u64,
     /// Bytes of replication frames published (encoded frames, without transport framing).
     pub replication_bytes: u64,
     /// States the replication frames published stand for: this cluster's own and repeated
@@ -189,6 +185,91 @@ pub struct ClusterStats {
 }
 
 impl ClusterStats {
+    /// Counts one event.
+    pub(crate) fn count(&mut self, event: &ClusterEvent) {
+        use ClusterEvent as E;
+        match *event {
+            E::Ticked => self.ticks += 1,
+            E::FrameAccepted { .. } => self.frames_accepted += 1,
+            E::FrameRefused { reason } => {
+                *match reason {
+                    FrameRefusal::Malformed => &mut self.frames_malformed,
+                    FrameRefusal::WrongVersion => &mut self.frames_wrong_version,
+                    FrameRefusal::WrongSender => &mut self.frames_wrong_sender,
+                    FrameRefusal::Replayed => &mut self.frames_replayed,
+                    FrameRefusal::Implausible => &mut self.frames_implausible,
+                } += 1
+            }
+            E::StateRejected { .. } => self.states_rejected += 1,
+            E::KeyframeMissed { .. } => self.keyframes_missed += 1,
+            E::ReplicationPublished {
+                bytes,
+                states,
+                unchanged,
+                keyframe,
+            } => {
+                self.replication_bytes += bytes;
+                self.states_replicated += states;
+                self.states_unchanged += unchanged;
+                self.keyframes_sent += u64::from(keyframe);
+            }
+            E::EventsPublished { bytes, .. } => self.events_bytes += bytes,
+            E::ProxySpawned { .. } => self.proxies_spawned += 1,
+            E::ProxyDespawned { .. } => self.proxies_despawned += 1,
+            E::ProxiesCoupled { count } => self.proxies_coupled += count,
+            E::ImpulsesPredicted { count } => self.impulses_predicted += count,
+            E::OpSent { issued_here, .. } => self.ops_routed += u64::from(issued_here),
+            E::OpResent { .. } => self.ops_resent += 1,
+            E::OpAnswered { .. } => self.ops_acked += 1,
+            E::OpForwarded { .. } => self.ops_forwarded += 1,
+            E::OpNotHere { .. } => self.ops_not_here += 1,
+            E::OpRepeated { .. } => self.ops_repeated += 1,
+            E::OpApplied { .. } => self.ops_applied += 1,
+            E::OpDropped { reason, .. } => {
+                *match reason {
+                    OpDrop::Invalid => &mut self.ops_dropped_invalid,
+                    OpDrop::Absurd => &mut self.ops_dropped_absurd,
+                    OpDrop::Stale => &mut self.ops_dropped_stale,
+                    OpDrop::Expired => &mut self.ops_expired,
+                    OpDrop::Gone => &mut self.ops_dropped_gone,
+                    OpDrop::Window => &mut self.ops_dropped_window,
+                    OpDrop::QueueFull => &mut self.ops_dropped_queue_full,
+                } += 1
+            }
+            E::OpWindowsForgotten { count } => self.op_windows_forgotten += count,
+            E::ContactReported { .. } => self.contacts_sent += 1,
+            E::ContactResent { .. } => self.contacts_resent += 1,
+            E::ContactAnswered { .. } => self.contacts_acked += 1,
+            E::ContactGivenUp { reason, .. } => match reason {
+                ContactGiveUp::OwnNow => self.contacts_own_now += 1,
+                _ => self.contacts_given_up += 1,
+            },
+            E::ContactReceived { .. } => self.contacts_received += 1,
+            E::ContactRepeated { .. } => self.contacts_repeated += 1,
+            E::ContactStale { .. } => self.contacts_dropped_stale += 1,
+            E::ContactDelivered { .. } => {}
+            E::ContactsMerged { count } => self.contacts_merged += count,
+            E::SeamImpulseSent { .. } => self.seam_impulses_sent += 1,
+            E::SeamImpulseReceived => self.seam_impulses_received += 1,
+            E::SeamImpulseDropped => self.seam_impulses_dropped += 1,
+            E::SeamImpulseSettled { .. } => self.seam_impulses_settled += 1,
+            E::SeamImpulsesDisagreed { count } => self.seam_impulses_disagreed += count,
+            E::SeamImpulsesUnmatched { count } => self.seam_impulses_unmatched += count,
+            E::SeamImpulseRouted { .. } => self.seam_impulses_routed += 1,
+            E::SeamImpulseUnjudged => self.seam_impulses_unjudged += 1,
+            E::HandoffAsked { .. } => self.handoffs_by_policy += 1,
+            E::HandoffGiven { .. } => self.handoffs_out += 1,
+            E::HandoffTaken { .. } => self.handoffs_in += 1,
+            E::HandoffTakenBack { .. } => self.handoffs_taken_back += 1,
+            E::HandoffReclaimed { .. } => self.handoffs_reclaimed += 1,
+            E::NeighbourLost { .. } => self.neighbours_lost += 1,
+            E::NeighbourLeft { .. } => self.neighbours_left += 1,
+            E::NeighbourRejoined { .. } => self.neighbours_rejoined += 1,
+            E::EntityAdopted { .. } => self.entities_adopted += 1,
+            E::EntityReturned { .. } => self.entities_returned += 1,
+        }
+    }
+
     /// Routed writes this cluster dropped for good, every reason: invalid, absurd, stale,
     /// expired unanswered, their entity gone, out of the window, or the queue full. With
     /// `ops_applied`, what became of every op (summed over clusters, each op ends in exactly

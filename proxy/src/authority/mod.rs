@@ -1,0 +1,51 @@
+//! Who should own an entity: the policy an owner asks at each replication frame.
+//!
+//! An owner hands an entity over by [`Cluster::transfer_authority`](crate::Cluster) (scripted:
+//! game code decides) or because its [`AuthorityPolicy`] says so — the hook where an affinity
+//! system plugs in. The policy is asked at every replication frame with the dynamic bodies the
+//! cluster owns and their states, and names the hand-offs to make in that frame; the cluster
+//! makes those that are valid (to a live neighbour) and that no scripted hand-off already
+//! claims.
+//!
+//! The built-in [`Spatial`] policy makes authority follow its entities through the world:
+//!
+//! > An entity whose centre — where its velocity carries it by the next replication frame — is
+//! > more than `margin` outside its owner's region is handed to the live neighbour whose
+//! > region holds that point at least `margin` deep; if none does (a fast body that overshot a
+//! > neighbour, or one that left every region), to the live neighbour whose region is nearest
+//! > to it, if that is nearer than the owner's by more than `margin`. The same answer must
+//! > hold `dwell_ticks` frames in a row.
+//!
+//! Looking ahead matters for fast bodies: the step in which a shot crosses a seam is then
+//! simulated by the cluster it enters, which owns what it is about to hit there (a shot
+//! handed over only after it crossed has already met the next region's bodies as proxies in
+//! its old owner's world). For slow bodies the look-ahead is a few millimetres.
+//!
+//! The margin is the hysteresis: a body resting on a seam, or jittering across it, stays where
+//! it is, and one handed over must come back `margin` deep before it returns. Ownership goes by
+//! the centre, not the extent (`crate::interest`): a body lies in one region by its centre,
+//! while its extent can reach into several, and the owner models the room around a body of
+//! its that is outside its region, so nothing is missed while it is within the margin.
+//!
+//! The defaults — a margin of 0.25 m, one frame — were chosen by measurement on the bundled
+//! scenes (`seam compare SCENE --ticks 600 --handoff-margin M --handoff-dwell D`): a dwell of 3
+//! frames hands `crossfire`'s shot to the targets' cluster too late (hit recall 0.667 against
+//! 1.000, and a 2.5 m/s jump at the hand-off); a margin of 1 m leaves crates resting just past
+//! the seam with the cluster that does not model what lies beyond them (`stacks`: RMS 3.3 cm
+//! against 1.5 cm); below 0.25 m a ball pressed against the seam on `grid` changes hands back
+//! and forth (3 hand-offs at 0 m, 1 at 0.1 m, none at 0.25–1 m), each without gain. Margins
+//! from 0 to 0.5 m and a dwell of 1 leave every other figure as it is.
+//!
+//! Only dynamic bodies are handed over by a policy: a Fixed or kinematic body's role is its
+//! owner's to keep (the wire carries no role; a new owner simulates what it takes over).
+//!
+//! Who adopts a dead neighbour's entities is the other authority rule (`adoption`).
+
+pub(crate) mod adoption;
+mod mode;
+mod policy;
+mod spatial;
+
+pub use mode::AuthorityMode;
+pub use policy::{AuthorityPolicy, AuthorityView, NeighbourView};
+pub use spatial::{Spatial, SpatialSettings};

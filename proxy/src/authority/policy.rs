@@ -1,0 +1,43 @@
+//! The hook an owner asks for hand-offs: [`AuthorityPolicy`], what it sees
+//! ([`AuthorityView`]) and how a cluster is configured to use one ([`AuthorityMode`]).
+
+use seam_sim::BodyRole;
+use seam_sim::wire::{ClusterId, EntityId, EntityState};
+
+use crate::world::Region;
+
+/// What a policy sees at one replication frame.
+pub struct AuthorityView<'a> {
+    /// The asking cluster (the owner).
+    pub cluster: ClusterId,
+    /// Its tick.
+    pub tick: u64,
+    /// Its region.
+    pub region: Region,
+    /// Seconds until the next replication frame (`dt` × `replication_interval`): a hand-off
+    /// made now takes effect at the next step, and the next chance to make one is that far
+    /// away.
+    pub lookahead_s: f32,
+    /// Its neighbours: the only clusters it can hand to.
+    pub neighbours: &'a [NeighbourView],
+    /// The entities it owns, with their states (as its replication frame carries them) and
+    /// roles.
+    pub owned: &'a [(EntityState, BodyRole)],
+}
+
+/// A neighbour, as a policy sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NeighbourView {
+    /// The neighbour.
+    pub id: ClusterId,
+    /// Its region, if the cluster was told it (`ClusterConfig::world`).
+    pub region: Option<Region>,
+    /// Whether it is taken for alive (hand-offs to a neighbour taken for dead are refused).
+    pub alive: bool,
+}
+
+/// Decides hand-offs for the owner. See the module docs.
+pub trait AuthorityPolicy {
+    /// Appends to `handoffs` the entities to hand over in this frame, and to whom.
+    fn decide(&mut self, view: &AuthorityView<'_>, handoffs: &mut Vec<(EntityId, ClusterId)>);
+}

@@ -1,0 +1,236 @@
+//! Hand-offs: an entity moved to another owner by flipping its `cluster_id`, and everything
+//! that keeps one from being lost on the way.
+//!
+//! An owner queues a hand-off ([`Handoffs::queue`], from game code or the authority policy);
+//! its next replication frame carries the entity's final state with the new owner's id, and
+//! the body becomes a proxy here ([`Handoffs::given`]). Until a frame of the new owner
+//! mentions the entity, every replication frame repeats the hand-off (in transit), so it
+//! survives a lost frame; what was given is remembered for a while (released), so that a late
+//! repeat of an older hand-off to this cluster is not taken. A hand-off to this cluster whose
+//! state is from the tick this world is about to step to is held until then (early).
+//! Hand-offs a neighbour never took come back when it leaves or is taken for dead
+//! ([`take_back`]).
+
+use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap};
+use seam_sim::{BodyRole, ClusterSim};
+
+use crate::config::ClusterConfig;
+use crate::error::ClusterError;
+use crate::events::{ClusterEvent, Events};
+use crate::neighbours::{NeighbourStatus, Neighbours};
+
+/// Ticks a hand-off this cluster made is remembered: long after any repeat of an older one
+/// can still be in flight.
+const RELEASED_FOR: u64 = 600;
+
+/// Hand-offs held for a later tick at most (beyond, one is taken at once, as before holding):
+/// bounds what a neighbour's frames can make this cluster keep.
+const MAX_EARLY_HANDOFFS: usize = 1 << 16;
+
+/// The role an entity's owner gives its body: dynamic if it is simulated, else Fixed (a body
+/// its old owner moved itself stands still until game code here moves it).
+pub(crate) fn owner_role(state: &EntityState) -> BodyRole {
+    if state.body.simulated {
+        BodyRole::Dynamic
+    } else {
+        BodyRole::Fixed
+    }
+}
+
+/// Takes back, as cluster `me`'s again, an entity handed over in `handed` that its new owner
+/// never took: the body as it was handed over (a Fixed proxy has lost its velocity since), at
+/// the next epoch. Returns whether the world took it.
+pub(crate) fn take_back(sim: &mut ClusterSim, me: ClusterId, handed: &EntityState) -> bool {
+    let back = EntityState {
+        cluster_id: me,
+        epoch: handed.epoch + 1,
+        ..*handed
+    };
+    sim.set_role(back.id, owner_role(&back)).is_ok() && sim.apply_state(&back).is_ok()
+}
+
+/// Whether this cluster may hand `entity` to `to` now.
+pub(crate) fn check(
+    sim: &ClusterSim,
+    config: &ClusterConfig,
+    neighbours: &Neighbours,
+    entity: EntityId,
+    to: ClusterId,
+) -> Result<(), ClusterError> {
+    let refuse = |reason| ClusterError::Transfer { entity, to, reason };
+    let info = sim.info(entity).ok_or(refuse("not in this world"))?;
+    if info.owner != config.cluster_id {
+        return Err(refuse("not owned by this cluster"));
+    }
+    if to == config.cluster_id {
+        return Err(refuse("already owned here"));
+    }
+    if !config.neighbours.contains(&to) {
+        return Err(refuse("not a neighbour"));
+    }
+    match neighbours.status(to) {
+        Some(NeighbourStatus::Dead) => Err(refuse("the neighbour is taken for dead (silent)")),
+        Some(NeighbourStatus::Left) => Err(refuse("the neighbour has left")),
+        _ => Ok(()),
+    }
+}
+
+/// This cluster's hand-offs: queued, in transit, released, and held early.
+#[derive(Debug, Default)]
+pub(crate) struct Handoffs {
+    /// Entities to hand over at the next replication frame, and to whom.
+    queued: IdMap<EntityId, ClusterId>,
+    /// Hand-offs not yet answered: the state each carried (new owner, final pose, next epoch).
+    /// Every replication frame repeats them until a frame of the new owner mentions the
+    /// entity; until then the new owner's silence about the entity is not a departure.
+    in_transit: IdMap<EntityId, EntityState>,
+    /// Entities this cluster handed over, with the epoch they left at and the tick.
+    released: IdMap<EntityId, (u32, u64)>,
+    /// Hand-offs to this cluster whose state is from a later tick than this world's, with the
+    /// cluster that sent each: taken at the tick the state belongs to, so the body is not
+    /// stepped twice for one tick.
+    early: IdMap<EntityId, (EntityState, ClusterId)>,
+}
+
+impl Handoffs {
+    /// Queues `entity` to be handed to `to` at the next replication frame (checked by
+    /// [`check`] first).
+    pub(crate) fn queue(&mut self, entity: EntityId, to: ClusterId) {
+        self.queued.insert(entity, to);
+    }
+
+    /// Whether a hand-off of `entity` is queued.
+    pub(crate) fn is_queued(&self, entity: EntityId) -> bool {
+        self.queued.contains_key(&entity)
+    }
+
+    /// Gives the queued entities among `states` (this frame's) their new owner and the next
+    /// epoch, and returns those states: the new owner rides with the final pose and
+    /// velocity, read before the body becomes a proxy (a Fixed body loses its velocity).
+    pub(crate) fn mark(&self, states: &mut [EntityState]) -> Vec<EntityState> {
+        let mut handing = Vec::new();
+        for state in states {
+            if let Some(&to) = self.queued.get(&state.id) {
+                state.cluster_id = to;
+                state.epoch += 1;
+                handing.push(*state);
+            }
+        }
+        handing
+    }
+
+    /// The hand-offs in transit, which every replication frame repeats.
+    pub(crate) fn in_transit(&self) -> impl Iterator<Item = EntityState> + '_ {
+        self.in_transit.values().copied()
+    }
+
+    /// Whether `entity` is in a hand-off from this cluster not yet answered.
+    pub(crate) fn is_in_transit(&self, entity: EntityId) -> bool {
+        self.in_transit.contains_key(&entity)
+    }
+
+    /// The frame carrying `handing` went out at `tick`: each body becomes a proxy of its new
+    /// owner (`role`), in transit until that owner mentions it. The queue is emptied.
+    pub(crate) fn given(
+        &mut self,
+        handing: Vec<EntityState>,
+        tick: u64,
+        role: BodyRole,
+        sim: &mut ClusterSim,
+        events: &mut Events,
+    ) -> Result<(), ClusterError> {
+        self.queued.clear();
+        for handed in handing {
+            let entity = handed.id;
+            sim.set_authority(entity, handed.cluster_id, handed.epoch)?;
+            sim.set_role(entity, role)?;
+            self.in_transit.insert(entity, handed);
+            self.released.insert(entity, (handed.epoch, tick));
+            events.emit(ClusterEvent::HandoffGiven {
+                entity,
+                to: handed.cluster_id,
+            });
+        }
+        self.released
+            .retain(|_, &mut (_, at)| tick.saturating_sub(at) <= RELEASED_FOR);
+        Ok(())
+    }
+
+    /// A frame of `from` mentioning the entities `mentioned` answers the hand-offs to it of
+    /// those entities.
+    pub(crate) fn answered_by<I: Iterator<Item = EntityId>>(
+        &mut self,
+        from: ClusterId,
+        mentioned: impl FnOnce() -> I,
+    ) {
+        if self
+            .in_transit
+            .values()
+            .any(|handed| handed.cluster_id == from)
+        {
+            let mentioned: IdMap<EntityId, ()> = mentioned().map(|id| (id, ())).collect();
+            self.in_transit
+                .retain(|id, handed| handed.cluster_id != from || !mentioned.contains_key(id));
+        }
+    }
+
+    /// Takes out the hand-offs to `neighbour` in transit (it left without taking them).
+    pub(crate) fn take_in_transit_to(&mut self, neighbour: ClusterId) -> Vec<EntityState> {
+        let unanswered: Vec<EntityState> = self
+            .in_transit
+            .values()
+            .filter(|handed| handed.cluster_id == neighbour)
+            .copied()
+            .collect();
+        for handed in &unanswered {
+            self.in_transit.swap_remove(&handed.id);
+        }
+        unanswered
+    }
+
+    /// Takes out the hand-off of `entity` in transit, if there is one.
+    pub(crate) fn take_in_transit(&mut self, entity: EntityId) -> Option<EntityState> {
+        self.in_transit.swap_remove(&entity)
+    }
+
+    /// Forgets the hand-offs in transit to `dead`: those it took are its entities' business
+    /// now.
+    pub(crate) fn forget_in_transit_to(&mut self, dead: ClusterId) {
+        self.in_transit
+            .retain(|_, handed| handed.cluster_id != dead);
+    }
+
+    /// Whether a hand-off of `entity` to this cluster at `epoch` is a repeat of one from
+    /// before this cluster gave the entity away again.
+    pub(crate) fn was_released(&self, entity: EntityId, epoch: u32) -> bool {
+        self.released
+            .get(&entity)
+            .is_some_and(|&(released, _)| epoch <= released)
+    }
+
+    /// Holds a hand-off to this cluster whose state is from `tick`, the tick this world is
+    /// about to step to (free-running: the old owner stepped the body and published after this
+    /// cluster's last tick, as between staggered pods), until that tick, so the body is taken
+    /// where it is at the tick it is taken and not stepped twice for one tick. Its proxy stays
+    /// where the last frame put it. Returns whether it was held (not when too many are).
+    pub(crate) fn hold_early(&mut self, state: &EntityState, from: ClusterId) -> bool {
+        let room = self.early.len() < MAX_EARLY_HANDOFFS;
+        if room {
+            self.early.insert(state.id, (*state, from));
+        }
+        room
+    }
+
+    /// Takes the held hand-offs whose tick this world has reached, with their senders.
+    pub(crate) fn take_early(&mut self, tick: u64) -> Vec<(EntityState, ClusterId)> {
+        let due: Vec<EntityId> = self
+            .early
+            .iter()
+            .filter(|(_, (state, _))| state.tick <= tick)
+            .map(|(id, _)| *id)
+            .collect();
+        due.iter()
+            .filter_map(|id| self.early.swap_remove(id))
+            .collect()
+    }
+}

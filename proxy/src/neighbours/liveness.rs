@@ -1,0 +1,272 @@
+//! [`Neighbours`]: what a cluster knows of each neighbour's liveness.
+
+use seam_sim::wire::{ClusterId, IdMap, PhysicsEventsFrame};
+
+use crate::authority::NeighbourView;
+use crate::config::ClusterConfig;
+
+/// What a cluster knows of a neighbour's liveness.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NeighbourStatus {
+    /// No frame from it yet.
+    NotHeard,
+    /// Heard within `neighbour_timeout_ticks`.
+    Alive,
+    /// Silent for longer than `neighbour_timeout_ticks`: taken for dead, its proxies were
+    /// despawned and its entities may be adopted. A frame from it again makes it `Alive`.
+    Dead,
+    /// Said it was stopping on purpose ([`Cluster::leave`](crate::Cluster::leave)): never
+    /// taken for dead, nothing adopted from it; hand-offs to it that it had not taken came
+    /// back. A frame from it again makes it `Alive`.
+    Left,
+}
+
+impl NeighbourStatus {
+    /// Taken for dead or left: nothing of this cluster's goes to it (no hand-off, no routed
+    /// write), and it adopts nothing.
+    pub fn is_gone(self) -> bool {
+        matches!(self, NeighbourStatus::Dead | NeighbourStatus::Left)
+    }
+}
+
+/// What a cluster tracks of one neighbour.
+#[derive(Debug, Clone, Copy)]
+struct Peer {
+    status: NeighbourStatus,
+    /// This cluster's tick when it last heard from the neighbour.
+    heard_at: u64,
+    /// The highest tick of the neighbour's replication frames taken so far.
+    newest_replication: Option<u64>,
+    /// The same for its physics-events frames.
+    newest_events: Option<u64>,
+    /// Host time of the tick its last frame was taken in, ns.
+    heard_ns: u64,
+}
+
+impl Peer {
+    /// A neighbour not heard from yet.
+    fn new() -> Self {
+        Self {
+            status: NeighbourStatus::NotHeard,
+            heard_at: 0,
+            newest_replication: None,
+            newest_events: None,
+            heard_ns: 0,
+        }
+    }
+
+    fn newest(&self, replication: bool) -> Option<u64> {
+        if replication {
+            self.newest_replication
+        } else {
+            self.newest_events
+        }
+    }
+}
+
+/// Each neighbour's liveness.
+#[derive(Debug)]
+pub(crate) struct Neighbours {
+    peers: IdMap<ClusterId, Peer>,
+    /// Whether the transport was connected at the last check.
+    transport_was_up: bool,
+    /// Neighbours that said they are leaving, heard last tick: taken as left this tick, so
+    /// that their last replication frame, on another channel, is reconciled first.
+    leaving_heard: Vec<ClusterId>,
+}
+
+impl Neighbours {
+    /// The neighbours of `config`, none heard from yet.
+    pub(crate) fn new(config: &ClusterConfig) -> Self {
+        Self {
+            peers: config
+                .neighbours
+                .iter()
+                .map(|&n| (n, Peer::new()))
+                .collect(),
+            transport_was_up: true,
+            leaving_heard: Vec::new(),
+        }
+    }
+
+    /// What this cluster knows of `neighbour` (`None` for a non-neighbour).
+    pub(crate) fn status(&self, neighbour: ClusterId) -> Option<NeighbourStatus> {
+        self.peers.get(&neighbour).map(|peer| peer.status)
+    }
+
+    /// Whether `cluster` is taken for dead or has left (`false` for a non-neighbour).
+    pub(crate) fn is_gone(&self, cluster: ClusterId) -> bool {
+        self.status(cluster).is_some_and(NeighbourStatus::is_gone)
+    }
+
+    /// Whether `cluster` is a neighbour not taken for dead and not gone: one to send to.
+    pub(crate) fn reachable(&self, cluster: ClusterId) -> bool {
+        self.peers.contains_key(&cluster) && !self.is_gone(cluster)
+    }
+
+    /// Whether `neighbour` is alive and has published its events frame of `step` (or a later
+    /// one): what it saw at that step has been said.
+    pub(crate) fn has_reported(&self, neighbour: ClusterId, step: u64) -> bool {
+        self.peers.get(&neighbour).is_some_and(|peer| {
+            peer.status == NeighbourStatus::Alive
+                && peer.newest_events.is_some_and(|newest| newest >= step)
+        })
+    }
+
+    /// The neighbours as an authority policy sees them.
+    pub(crate) fn views(&self, config: &ClusterConfig) -> Vec<NeighbourView> {
+        config
+            .neighbours
+            .iter()
+            .map(|&id| NeighbourView {
+                id,
+                region: config.world.iter().find(|c| c.id == id).map(|c| c.region),
+                alive: !self.is_gone(id),
+            })
+            .collect()
+    }
+
+    /// Takes neighbours silent for too long for dead, at this cluster's tick `now` and host
+    /// time `now_ns`, and returns them. While this cluster's own transport is down (`up`
+    /// says whether it is connected) nobody can be heard, so nobody is taken for dead: the
+    /// clock of every neighbour restarts when the transport comes back.
+    pub(crate) fn find_dead(
+        &mut self,
+        config: &ClusterConfig,
+        now: u64,
+        now_ns: u64,
+        up: impl FnOnce() -> bool,
+    ) -> Vec<ClusterId> {
+        let timeout = config.neighbour_timeout_ticks;
+        if timeout == 0 {
+            return Vec::new();
+        }
+        let up = up();
+        if !up || !self.transport_was_up {
+            self.transport_was_up = up;
+            for peer in self.peers.values_mut() {
+                peer.heard_at = now;
+                peer.heard_ns = now_ns;
+            }
+            return Vec::new();
+        }
+        // Silent for more than the timeout in ticks *and* in host time (timeout × dt): a pod
+        // catching up after a stall runs its ticks back to back, faster than its neighbours
+        // publish, and must not take them for dead for that.
+        let timeout_ns = (timeout as f64 * f64::from(config.dt) * 1e9) as u64;
+        let mut lost = Vec::new();
+        for (&neighbour, peer) in self.peers.iter_mut() {
+            if peer.status == NeighbourStatus::Alive
+                && now.saturating_sub(peer.heard_at) > timeout
+                && now_ns.saturating_sub(peer.heard_ns) > timeout_ns
+            {
+                peer.status = NeighbourStatus::Dead;
+                lost.push(neighbour);
+            }
+        }
+        lost
+    }
+
+    /// Notes a frame from `neighbour` tagged `tick` (a replication frame or not), taken in at
+    /// this cluster's tick `now` and host time `now_ns`. Returns whether the neighbour was
+    /// gone and is back.
+    pub(crate) fn heard(
+        &mut self,
+        neighbour: ClusterId,
+        tick: u64,
+        replication: bool,
+        now: u64,
+        now_ns: u64,
+    ) -> bool {
+        let Some(peer) = self.peers.get_mut(&neighbour) else {
+            return false;
+        };
+        let back = peer.status.is_gone();
+        if back {
+            // Back, perhaps restarted with a lower tick: its ticks count afresh.
+            peer.newest_replication = None;
+            peer.newest_events = None;
+        }
+        peer.status = NeighbourStatus::Alive;
+        peer.heard_at = now;
+        peer.heard_ns = now_ns;
+        let newest = if replication {
+            &mut peer.newest_replication
+        } else {
+            &mut peer.newest_events
+        };
+        *newest = Some(newest.map_or(tick, |t| t.max(tick)));
+        back
+    }
+
+    /// Notes the neighbours whose events `frames` say they are leaving: taken as left at the
+    /// next tick ([`Self::take_leaving`]).
+    pub(crate) fn hear_leaving(&mut self, frames: &[(PhysicsEventsFrame, u64)]) {
+        self.leaving_heard.extend(
+            frames
+                .iter()
+                .filter(|(frame, _)| frame.leaving)
+                .map(|(frame, _)| frame.from),
+        );
+    }
+
+    /// The neighbours heard leaving last tick, each now taken as left (those this cluster
+    /// has as neighbours).
+    pub(crate) fn take_leaving(&mut self) -> Vec<ClusterId> {
+        let heard = std::mem::take(&mut self.leaving_heard);
+        heard
+            .into_iter()
+            .filter(|n| match self.peers.get_mut(n) {
+                Some(peer) => {
+                    peer.status = NeighbourStatus::Left;
+                    true
+                }
+                None => false,
+            })
+            .collect()
+    }
+
+    /// Whether a frame of a live `neighbour` is tagged no later than one of its frames of the
+    /// same kind taken before: a sender publishes one per tick, in order, so it is a replay (or
+    /// a forgery of a tick already seen).
+    pub(crate) fn replayed(&self, neighbour: ClusterId, tick: u64, replication: bool) -> bool {
+        self.peers.get(&neighbour).is_some_and(|peer| {
+            peer.status == NeighbourStatus::Alive
+                && peer.newest(replication).is_some_and(|n| tick <= n)
+        })
+    }
+
+    /// Whether a frame of `neighbour` tagged `tick` is further ahead than any live neighbour
+    /// could be, for a cluster at tick `mine` and host time `now_ns`: pods share one schedule,
+    /// so a neighbour is at most where this cluster is, or where its own last frame was plus
+    /// one tick per `dt` of host time since (this cluster may be the one that stalled), plus
+    /// twice the neighbour timeout of slack. Such a frame could only be forged, and would
+    /// otherwise pass for the newest; it is dropped.
+    pub(crate) fn implausible(
+        &self,
+        config: &ClusterConfig,
+        neighbour: ClusterId,
+        tick: u64,
+        mine: u64,
+        now_ns: u64,
+    ) -> bool {
+        let window = config.neighbour_timeout_ticks.saturating_mul(2);
+        if window == 0 {
+            return false;
+        }
+        let dt_ns = (f64::from(config.dt) * 1e9).max(1.0);
+        self.peers.get(&neighbour).is_some_and(|peer| {
+            let elapsed = (now_ns.saturating_sub(peer.heard_ns) as f64 / dt_ns) as u64;
+            peer.status == NeighbourStatus::Alive
+                && peer
+                    .newest_replication
+                    .max(peer.newest_events)
+                    .is_some_and(|newest| {
+                        tick > newest
+                            .saturating_add(elapsed)
+                            .max(mine)
+                            .saturating_add(window)
+                    })
+        })
+    }
+}

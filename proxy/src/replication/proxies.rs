@@ -1,0 +1,61 @@
+//! How a proxy follows its entity's replicated state, by [`ProxyMode`]: set to the pose
+//! (Fixed), given the velocities that carry it there (kinematic, see `dead_reckoning`), or
+//! moved by a [`CustomProxy`].
+
+use seam_sim::wire::EntityState;
+use seam_sim::{BodyRole, ClusterSim, SimError};
+
+use super::dead_reckoning;
+use crate::config::{ClusterConfig, ProxyMode};
+
+/// Moves proxies in [`ProxyMode::Custom`].
+pub trait CustomProxy {
+    /// Brings the proxy of `state.id` in `sim` to the replicated `state`.
+    fn update(&mut self, sim: &mut ClusterSim, state: &EntityState) -> Result<(), SimError>;
+}
+
+/// The proxies' way of following their entities.
+#[derive(Default)]
+pub(crate) struct Proxies {
+    custom: Option<Box<dyn CustomProxy>>,
+}
+
+impl Proxies {
+    /// Sets the hook that moves proxies in [`ProxyMode::Custom`].
+    pub(crate) fn set_custom(&mut self, proxy: Box<dyn CustomProxy>) {
+        self.custom = Some(proxy);
+    }
+
+    /// Brings the proxy of `state.id` to the replicated `state`.
+    pub(crate) fn follow(
+        &mut self,
+        sim: &mut ClusterSim,
+        config: &ClusterConfig,
+        state: &EntityState,
+    ) -> Result<(), SimError> {
+        let coupled = sim
+            .info(state.id)
+            .is_some_and(|info| info.role == BodyRole::Dynamic);
+        if coupled {
+            // Simulated here for now (see `seam_sim::coupling`): set to what its owner says.
+            return sim.apply_state(state);
+        }
+        match config.proxy_mode {
+            ProxyMode::Fixed => sim.apply_state(state),
+            ProxyMode::KinematicVelocityBased => {
+                // Aim where the entity will be at the next update, so the proxy moves with it in
+                // between (see `dead_reckoning`).
+                let Some(now) = sim.state(state.id) else {
+                    return Err(SimError::UnknownEntity(state.id));
+                };
+                let ticks = config.replication_interval.max(1) as f32;
+                let aim = dead_reckoning::aim(&now, state, config.dt * ticks, ticks);
+                sim.apply_state(&aim)
+            }
+            ProxyMode::Custom => match self.custom.as_mut() {
+                Some(proxy) => proxy.update(sim, state),
+                None => sim.apply_state(state),
+            },
+        }
+    }
+}

@@ -1,0 +1,223 @@
+//! Bringing the world in line with a neighbour's replication frame: hand-offs in, proxies
+//! spawned, moved and despawned.
+
+use seam_sim::ClusterSim;
+use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap};
+
+use super::interest::{Interest, extent};
+use super::proxies::Proxies;
+use crate::config::ClusterConfig;
+use crate::contacts::Predictions;
+use crate::events::{ClusterEvent, Events};
+use crate::handoff::{Handoffs, owner_role};
+use crate::inbox::HeldReplication;
+
+/// What reconciling reads and changes: the world and the parts that follow it.
+pub(crate) struct Reconcile<'a> {
+    pub(crate) sim: &'a mut ClusterSim,
+    pub(crate) config: &'a ClusterConfig,
+    pub(crate) events: &'a mut Events,
+    pub(crate) handoffs: &'a mut Handoffs,
+    pub(crate) interest: &'a Interest,
+    pub(crate) proxies: &'a mut Proxies,
+    pub(crate) predictions: &'a mut Predictions,
+    /// Ticking free-running: a hand-off from the next tick is held until then.
+    pub(crate) free_running: bool,
+}
+
+/// A state this cluster does not take (rejected, counted).
+struct Refused;
+
+impl Reconcile<'_> {
+    fn visible(&self, state: &EntityState) -> bool {
+        self.interest.covers(&extent(state, self.config.sweep_s()))
+    }
+
+    fn rejected(&mut self, from: ClusterId) {
+        self.events.emit(ClusterEvent::StateRejected { from });
+    }
+
+    /// Brings the world in line with one neighbour's replication frame.
+    pub(crate) fn frame(&mut self, frame: &HeldReplication) {
+        let from = frame.from;
+        let mut listed: IdMap<EntityId, ()> = IdMap::default();
+        // A hand-off this cluster made to `from` is answered once `from` mentions the entity.
+        self.handoffs.answered_by(from, || frame.ids());
+        for state in frame.states() {
+            let Ok(state) = state else {
+                // A record that does not read (an index out of its table, a bad rotation).
+                self.rejected(from);
+                continue;
+            };
+            let absurd = ![state.position, state.linvel, state.angvel]
+                .into_iter()
+                .all(|v| self.config.within_bound(v));
+            if absurd || seam_sim::check_state(&state).is_err() {
+                self.rejected(from);
+                continue;
+            }
+            if self.hold_early(&state, from) {
+                listed.insert(state.id, ());
+                continue;
+            }
+            let known = self.sim.info(state.id).map(|i| (i.owner, i.epoch));
+            if self.state(&state, from, known, &mut listed).is_err() {
+                self.rejected(from);
+                tracing::debug!(
+                    cluster = %self.config.cluster_id,
+                    %from,
+                    entity = %state.id,
+                    claimed_owner = %state.cluster_id,
+                    known = ?known,
+                    epoch = state.epoch,
+                    "state rejected"
+                );
+            }
+        }
+        // Proxies of this neighbour that its frame no longer lists have left (or were
+        // destroyed): nothing else is modelled. A delta frame without its keyframe lists only
+        // what changed, so it says nothing of the others.
+        if frame.is_whole() {
+            self.despawn_departed(from, &listed);
+        }
+    }
+
+    /// A hand-off to this cluster whose state is from the tick this world is about to step to
+    /// (free-running) is held until that tick (see [`Handoffs::hold_early`]). A state further
+    /// ahead means this world is behind its neighbours (stalled, or catching up): holding it
+    /// would leave the body with no owner for as long, so it is taken at once. Returns whether
+    /// `state` was held.
+    fn hold_early(&mut self, state: &EntityState, from: ClusterId) -> bool {
+        self.free_running
+            && state.cluster_id == self.config.cluster_id
+            && state.tick == self.sim.tick() + 1
+            && self.handoffs.hold_early(state, from)
+    }
+
+    /// Takes the held hand-offs whose tick this world has reached.
+    pub(crate) fn early_handoffs(&mut self) {
+        for (state, from) in self.handoffs.take_early(self.sim.tick()) {
+            let known = self.sim.info(state.id).map(|i| (i.owner, i.epoch));
+            if self
+                .state(&state, from, known, &mut IdMap::default())
+                .is_err()
+            {
+                self.rejected(from);
+            }
+        }
+    }
+
+    /// Brings the world in line with one state of `from`'s frame; `known` is what the world
+    /// had of the entity (owner, epoch). Proxies listed are noted in `listed`.
+    fn state(
+        &mut self,
+        state: &EntityState,
+        from: ClusterId,
+        known: Option<(ClusterId, u32)>,
+        listed: &mut IdMap<EntityId, ()>,
+    ) -> Result<(), Refused> {
+        let me = self.config.cluster_id;
+        match known {
+            // Handed (back) to this cluster, which owns it already — a repeat, or a return to
+            // a pod that was only stalled and kept simulating it: nothing to do but learn the
+            // epoch.
+            Some((owner, epoch)) if owner == me && state.cluster_id == me => {
+                if state.epoch > epoch {
+                    let _ = self.sim.set_authority(state.id, me, state.epoch);
+                }
+                Ok(())
+            }
+            // Older than what this world knows (a hand-off repeated after the entity moved
+            // on): not news.
+            Some((_, epoch)) if state.epoch < epoch => Ok(()),
+            // A repeat of the hand-off this world already applied.
+            Some((owner, epoch))
+                if owner != from && state.epoch == epoch && state.cluster_id == owner =>
+            {
+                Ok(())
+            }
+            // Only an entity's owner speaks for it: a frame claiming another cluster's (or
+            // this cluster's) entity is ignored.
+            Some((owner, _)) if owner != from => Err(Refused),
+            Some(_) => {
+                listed.insert(state.id, ());
+                self.known(state, from)
+            }
+            // A repeat of a hand-off to this cluster from before it gave the entity away
+            // again.
+            None if state.cluster_id == me && self.handoffs.was_released(state.id, state.epoch) => {
+                Ok(())
+            }
+            // Handed to this cluster an entity it had no proxy of: it starts as the body.
+            None if state.cluster_id == me => {
+                self.sim
+                    .spawn(state, owner_role(state))
+                    .map_err(|_| Refused)?;
+                self.taken(state.id, from);
+                Ok(())
+            }
+            None if state.cluster_id == from && self.visible(state) => {
+                listed.insert(state.id, ());
+                self.sim
+                    .spawn(state, self.config.proxy_mode.role())
+                    .map_err(|_| Refused)?;
+                self.events
+                    .emit(ClusterEvent::ProxySpawned { entity: state.id });
+                Ok(())
+            }
+            None => Ok(()),
+        }
+    }
+
+    fn taken(&mut self, entity: EntityId, from: ClusterId) {
+        self.events
+            .emit(ClusterEvent::HandoffTaken { entity, from });
+    }
+
+    /// A state from the current owner of an entity this world already has.
+    fn known(&mut self, state: &EntityState, from: ClusterId) -> Result<(), Refused> {
+        if state.cluster_id == self.config.cluster_id {
+            // Handed to this cluster: the proxy becomes the body, in place, with the final pose
+            // and velocity the old owner sent.
+            self.sim
+                .set_role(state.id, owner_role(state))
+                .map_err(|_| Refused)?;
+            self.sim.apply_state(state).map_err(|_| Refused)?;
+            self.taken(state.id, from);
+            return Ok(());
+        }
+        if state.cluster_id != from {
+            // Handed to a third cluster: writes are routed there from now on.
+            self.sim
+                .set_authority(state.id, state.cluster_id, state.epoch)
+                .map_err(|_| Refused)?;
+        }
+        if !self.visible(state) {
+            self.sim.despawn(state.id).map_err(|_| Refused)?;
+            self.events
+                .emit(ClusterEvent::ProxyDespawned { entity: state.id });
+            return Ok(());
+        }
+        self.predictions.state_applied(state.id);
+        self.proxies
+            .follow(self.sim, self.config, state)
+            .map_err(|_| Refused)
+    }
+
+    /// Despawns the proxies of `from` its whole frame did not list (and that are not in a
+    /// hand-off from this cluster).
+    fn despawn_departed(&mut self, from: ClusterId, listed: &IdMap<EntityId, ()>) {
+        let departed: Vec<EntityId> = self
+            .sim
+            .entities()
+            .filter(|(id, info)| info.owner == from && !listed.contains_key(id))
+            .filter(|(id, _)| !self.handoffs.is_in_transit(*id))
+            .map(|(id, _)| id)
+            .collect();
+        for entity in departed {
+            if self.sim.despawn(entity).is_ok() {
+                self.events.emit(ClusterEvent::ProxyDespawned { entity });
+            }
+        }
+    }
+}
