@@ -3,7 +3,8 @@
 use rapier3d::prelude::*;
 
 use crate::body::{self, Entry, StaleBounds};
-use crate::contacts::{ContactCollector, ContactEvent};
+use crate::config::SimConfig;
+use crate::contacts::{ContactCollector, ContactEvent, read_impulse};
 use crate::coupling::{self, CouplingChanges, SeamImpulse};
 use crate::entity::{BodyRole, EntityInfo};
 use crate::error::SimError;
@@ -12,33 +13,6 @@ use crate::joints::Joints;
 use crate::router::WriteRouter;
 use crate::validate;
 use crate::wire::{ClusterId, EntityId, EntityState, IdMap, PhysicsOp};
-
-/// Settings of one cluster's world.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SimConfig {
-    /// This cluster.
-    pub cluster_id: ClusterId,
-    /// Step length in seconds.
-    pub dt: f32,
-    /// Gravity, m/s².
-    pub gravity: [f32; 3],
-    /// Largest linear speed Rapier lets a body keep after a solver substep, m/s. Rapier's own
-    /// default is 400 m/s, below a rifle bullet; raise it for fast projectiles (and give them
-    /// CCD).
-    pub max_linear_velocity: f32,
-}
-
-impl SimConfig {
-    /// 60 Hz, Earth gravity along −y, Rapier's default speed cap of 400 m/s.
-    pub fn new(cluster_id: ClusterId) -> Self {
-        Self {
-            cluster_id,
-            dt: 1.0 / 60.0,
-            gravity: [0.0, -9.81, 0.0],
-            max_linear_velocity: 400.0,
-        }
-    }
-}
 
 /// One cluster's world: a Rapier world and a map entity → body.
 ///
@@ -380,30 +354,5 @@ impl ClusterSim {
             }
         }
         self.tick += 1;
-    }
-}
-
-/// Fills in the impulse and normal of a contact that started in the last step, from the
-/// solver's contact pair.
-fn read_impulse(
-    world: &PhysicsWorld,
-    entities: &IdMap<EntityId, Entry>,
-    contact: &mut ContactEvent,
-) {
-    let (Some(a), Some(b)) = (entities.get(&contact.a), entities.get(&contact.b)) else {
-        return;
-    };
-    let Some(pair) = world.contact_pair(a.collider, b.collider) else {
-        return;
-    };
-    // Rapier's impulse and normal point from its first collider to its second.
-    let sign = if pair.collider1 == a.collider {
-        1.0
-    } else {
-        -1.0
-    };
-    contact.impulse = (pair.total_impulse() * sign).to_array();
-    if let Some(manifold) = pair.manifolds().first() {
-        contact.normal = (manifold.data.normal * sign).to_array();
     }
 }

@@ -4,7 +4,8 @@ use std::sync::Mutex;
 
 use rapier3d::prelude::*;
 
-use crate::wire::{ClusterId, EntityId};
+use crate::body::Entry;
+use crate::wire::{ClusterId, EntityId, IdMap};
 
 /// A contact between two entities that started or stopped during a step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,4 +88,29 @@ impl EventHandler for ContactCollector {
     }
 
     fn handle_soft_body_tear_event(&self, _soft_bodies: &SoftBodySet, _event: &SoftBodyTearEvent) {}
+}
+
+/// Fills in the impulse and normal of a contact that started in the last step, from the
+/// solver's contact pair.
+pub(crate) fn read_impulse(
+    world: &PhysicsWorld,
+    entities: &IdMap<EntityId, Entry>,
+    contact: &mut ContactEvent,
+) {
+    let (Some(a), Some(b)) = (entities.get(&contact.a), entities.get(&contact.b)) else {
+        return;
+    };
+    let Some(pair) = world.contact_pair(a.collider, b.collider) else {
+        return;
+    };
+    // Rapier's impulse and normal point from its first collider to its second.
+    let sign = if pair.collider1 == a.collider {
+        1.0
+    } else {
+        -1.0
+    };
+    contact.impulse = (pair.total_impulse() * sign).to_array();
+    if let Some(manifold) = pair.manifolds().first() {
+        contact.normal = (manifold.data.normal * sign).to_array();
+    }
 }

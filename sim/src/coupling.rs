@@ -72,6 +72,18 @@ fn swept_box(
     now.merged(&moved).loosened(margin)
 }
 
+/// How far a proxy is led from where it stands: a Fixed proxy stands where its owner's last
+/// frame put it; with a frame every few ticks the entity has moved on since. It is judged, and
+/// coupled, where its replicated velocity has carried it (a kinematic proxy is carried by its
+/// own dead reckoning).
+fn lead(e: &Entry, now: u64, dt: f32) -> Vector {
+    if e.info.role != BodyRole::Fixed {
+        return Vector::ZERO;
+    }
+    let ticks = now.saturating_sub(e.posed_tick).min(MAX_LEAD_TICKS);
+    Vector::from_array(e.replicated.0) * (ticks as f32 * dt)
+}
+
 /// Makes the proxies that bodies simulated here may touch this step dynamic, and the others
 /// `rest` (their mode's role), as the module says. `me` is this cluster.
 pub(crate) fn couple(
@@ -82,19 +94,47 @@ pub(crate) fn couple(
     now: u64,
     dt: f32,
 ) -> CouplingChanges {
-    // A Fixed proxy stands where its owner's last frame put it; with a frame every few ticks
-    // the entity has moved on since. It is judged, and coupled, where its replicated velocity
-    // has carried it (a kinematic proxy is carried by its own dead reckoning).
-    let lead = |e: &Entry| {
-        if e.info.role != BodyRole::Fixed {
-            return Vector::ZERO;
-        }
-        let ticks = now.saturating_sub(e.posed_tick).min(MAX_LEAD_TICKS);
-        Vector::from_array(e.replicated.0) * (ticks as f32 * dt)
-    };
+    let proxies = reaches(world, entities, me, now, dt);
+    let dynamic = touched(world, entities, me, &proxies, dt);
+    set_roles(world, entities, &proxies, &dynamic, rest, now, dt)
+}
+
+/// The proxies of simulated entities, by their index in `entities`, with the box each may
+/// sweep this step (led to where its replicated velocity has carried it).
+fn reaches(
+    world: &PhysicsWorld,
+    entities: &IdMap<EntityId, Entry>,
+    me: ClusterId,
+    now: u64,
+    dt: f32,
+) -> Vec<(usize, Aabb)> {
     let is_proxy = |e: &Entry| {
         e.info.owner != me && e.info.owner != ClusterId::SCENERY && e.info.body.simulated
     };
+    let mut proxies: Vec<(usize, Aabb)> = Vec::new();
+    for (index, (_, entry)) in entities.iter().enumerate() {
+        if !is_proxy(entry) {
+            continue;
+        }
+        let velocity = Vector::from_array(entry.replicated.0);
+        let (body, collider) = (&world.bodies[entry.body], &world.colliders[entry.collider]);
+        let swept = swept_box(body, collider, velocity, dt, REACH_MARGIN_M);
+        let lead = lead(entry, now, dt);
+        proxies.push((index, Aabb::new(swept.mins + lead, swept.maxs + lead)));
+    }
+    proxies
+}
+
+/// Which of `proxies` a body simulated here may touch this step, directly or through other
+/// proxies it may touch.
+fn touched(
+    world: &PhysicsWorld,
+    entities: &IdMap<EntityId, Entry>,
+    me: ClusterId,
+    proxies: &[(usize, Aabb)],
+    dt: f32,
+) -> Vec<bool> {
+    let mut dynamic = vec![false; proxies.len()];
     // The fastest body simulated here bounds how far a query must look around a proxy.
     let mut fastest = 0.0f32;
     let mut any_simulated = false;
@@ -104,68 +144,75 @@ pub(crate) fn couple(
             fastest = fastest.max(world.bodies[entry.body].linvel().length());
         }
     }
-    let mut proxies: Vec<(usize, Aabb)> = Vec::new();
-    for (index, (_, entry)) in entities.iter().enumerate() {
-        if !is_proxy(entry) {
-            continue;
-        }
-        let velocity = Vector::from_array(entry.replicated.0);
-        let (body, collider) = (&world.bodies[entry.body], &world.colliders[entry.collider]);
-        let swept = swept_box(body, collider, velocity, dt, REACH_MARGIN_M);
-        let lead = lead(entry);
-        proxies.push((index, Aabb::new(swept.mins + lead, swept.maxs + lead)));
+    if !any_simulated || proxies.is_empty() {
+        return dynamic;
     }
-    let mut dynamic = vec![false; proxies.len()];
-    if any_simulated && !proxies.is_empty() {
-        // The query structure is left as the last step made it (refreshing it here would
-        // change how the next step pairs bodies, and so its result): its boxes are where
-        // bodies were at the start of that step, so the search looks a step further.
-        let simulated_here = |collider: &Collider| {
-            entities
-                .get(&EntityId::from_u128(collider.user_data))
-                .is_some_and(|e| e.info.owner == me && e.info.role == BodyRole::Dynamic)
-        };
-        let mut queue = Vec::new();
-        for (slot, (_, reach)) in proxies.iter().enumerate() {
-            let look = reach.loosened(2.0 * fastest * dt);
-            let touched = world
-                .intersect_aabb_conservative(look, QueryFilter::only_dynamic())
-                .any(|(_, collider)| {
-                    let Some(body) = collider.parent().and_then(|p| world.bodies.get(p)) else {
-                        return false;
-                    };
-                    simulated_here(collider)
-                        && swept_box(body, collider, body.linvel(), dt, 0.0).intersects(reach)
-                });
-            if touched {
-                dynamic[slot] = true;
-                queue.push(slot);
-            }
-        }
-        // Through proxies: what a coupled proxy may touch is coupled too, so a push passes
-        // down a row of the neighbour's bodies as it would in one world.
-        // Proxies moved since the last step are not where the query structure has them, so
-        // this goes through the proxies' own boxes, filed in a grid so that each coupled proxy
-        // looks only at those near it (the same closure as testing every pair).
-        if !queue.is_empty() {
-            let mut grid = BoxGrid::new(PROXY_GRID_CELL_M);
-            for (slot, (_, reach)) in proxies.iter().enumerate() {
-                grid.insert(slot as u32, reach.mins.to_array(), reach.maxs.to_array());
-            }
-            grid.seal();
-            while let Some(from) = queue.pop() {
-                let reach = proxies[from].1;
-                grid.any(reach.mins.to_array(), reach.maxs.to_array(), |other| {
-                    let other = other as usize;
-                    if !dynamic[other] && proxies[other].1.intersects(&reach) {
-                        dynamic[other] = true;
-                        queue.push(other);
-                    }
-                    false
-                });
-            }
+    // The query structure is left as the last step made it (refreshing it here would change
+    // how the next step pairs bodies, and so its result): its boxes are where bodies were at
+    // the start of that step, so the search looks a step further.
+    let simulated_here = |collider: &Collider| {
+        entities
+            .get(&EntityId::from_u128(collider.user_data))
+            .is_some_and(|e| e.info.owner == me && e.info.role == BodyRole::Dynamic)
+    };
+    let mut queue = Vec::new();
+    for (slot, (_, reach)) in proxies.iter().enumerate() {
+        let look = reach.loosened(2.0 * fastest * dt);
+        let touched = world
+            .intersect_aabb_conservative(look, QueryFilter::only_dynamic())
+            .any(|(_, collider)| {
+                let Some(body) = collider.parent().and_then(|p| world.bodies.get(p)) else {
+                    return false;
+                };
+                simulated_here(collider)
+                    && swept_box(body, collider, body.linvel(), dt, 0.0).intersects(reach)
+            });
+        if touched {
+            dynamic[slot] = true;
+            queue.push(slot);
         }
     }
+    through_proxies(proxies, &mut dynamic, queue);
+    dynamic
+}
+
+/// What a coupled proxy may touch is coupled too, so a push passes down a row of the
+/// neighbour's bodies as it would in one world. Proxies moved since the last step are not
+/// where the query structure has them, so this goes through the proxies' own boxes, filed in a
+/// grid so that each coupled proxy looks only at those near it (the same closure as testing
+/// every pair).
+fn through_proxies(proxies: &[(usize, Aabb)], dynamic: &mut [bool], mut queue: Vec<usize>) {
+    if queue.is_empty() {
+        return;
+    }
+    let mut grid = BoxGrid::new(PROXY_GRID_CELL_M);
+    for (slot, (_, reach)) in proxies.iter().enumerate() {
+        grid.insert(slot as u32, reach.mins.to_array(), reach.maxs.to_array());
+    }
+    grid.seal();
+    while let Some(from) = queue.pop() {
+        let reach = proxies[from].1;
+        grid.any(reach.mins.to_array(), reach.maxs.to_array(), |other| {
+            let other = other as usize;
+            if !dynamic[other] && proxies[other].1.intersects(&reach) {
+                dynamic[other] = true;
+                queue.push(other);
+            }
+            false
+        });
+    }
+}
+
+/// Gives each proxy its role for the step: dynamic where `dynamic` says, else `rest`.
+fn set_roles(
+    world: &mut PhysicsWorld,
+    entities: &mut IdMap<EntityId, Entry>,
+    proxies: &[(usize, Aabb)],
+    dynamic: &[bool],
+    rest: BodyRole,
+    now: u64,
+    dt: f32,
+) -> CouplingChanges {
     let mut changes = CouplingChanges::default();
     for (slot, &(index, _)) in proxies.iter().enumerate() {
         let (_, entry) = entities
@@ -182,7 +229,7 @@ pub(crate) fn couple(
         if entry.info.role == want {
             continue;
         }
-        let lead = lead(entry);
+        let lead = lead(entry, now, dt);
         let body = &mut world.bodies[entry.body];
         if want == BodyRole::Dynamic && lead != Vector::ZERO {
             let at = body.translation() + lead;

@@ -11,7 +11,7 @@ use crate::body::{self, Entry, StaleBounds};
 use crate::contacts::ContactEvent;
 use crate::entity::{BodyRole, EntityInfo};
 use crate::error::SimError;
-use crate::joints::Joints;
+use crate::joints::{JointId, JointSpec, Joints};
 use crate::router::{WriteOutcome, WriteRouter};
 use crate::validate;
 use crate::wire::{ClusterId, EntityId, EntityState, IdMap, PhysicsOp, Shape};
@@ -279,5 +279,28 @@ impl PhysicsHandle<'_> {
     /// Puts the body to sleep.
     pub fn sleep(&mut self, target: EntityId) -> Result<WriteOutcome, SimError> {
         self.write(PhysicsOp::Sleep { target })
+    }
+
+    /// Joins two entities. Returns `None` unless both are in this world and owned by this
+    /// cluster: joints across clusters are refused (affinity must co-locate joint partners),
+    /// and so are joints with invalid (non-finite) anchors or axis.
+    pub fn create_joint(&mut self, a: EntityId, b: EntityId, spec: JointSpec) -> Option<JointId> {
+        let owned = |id: EntityId| {
+            self.entities
+                .get(&id)
+                .filter(|e| e.info.owner == self.cluster_id)
+                .map(|e| e.body)
+        };
+        let (body_a, body_b) = (owned(a)?, owned(b)?);
+        if a == b {
+            return None;
+        }
+        self.joints
+            .create(&mut self.world.impulse_joints, body_a, body_b, spec)
+    }
+
+    /// Removes a joint; returns whether it existed.
+    pub fn remove_joint(&mut self, joint: JointId) -> bool {
+        self.joints.remove(&mut self.world.impulse_joints, joint)
     }
 }

@@ -5,9 +5,6 @@ use std::collections::BTreeMap;
 
 use rapier3d::prelude::*;
 
-use crate::handle::PhysicsHandle;
-use crate::wire::EntityId;
-
 /// A joint between two entities, anchored in each body's local frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum JointSpec {
@@ -36,7 +33,7 @@ pub enum JointSpec {
     },
 }
 
-/// A joint made by [`PhysicsHandle::create_joint`].
+/// A joint made by [`PhysicsHandle::create_joint`](crate::PhysicsHandle::create_joint).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct JointId(u64);
 
@@ -52,23 +49,16 @@ impl Joints {
     pub(crate) fn forget_body(&mut self, body: RigidBodyHandle) {
         self.handles.retain(|_, (_, a, b)| *a != body && *b != body);
     }
-}
 
-impl PhysicsHandle<'_> {
-    /// Joins two entities. Returns `None` unless both are in this world and owned by this
-    /// cluster: joints across clusters are refused (affinity must co-locate joint partners),
-    /// and so are joints with invalid (non-finite) anchors or axis.
-    pub fn create_joint(&mut self, a: EntityId, b: EntityId, spec: JointSpec) -> Option<JointId> {
-        let owned = |id: EntityId| {
-            self.entities
-                .get(&id)
-                .filter(|e| e.info.owner == self.cluster_id)
-                .map(|e| e.body)
-        };
-        let (body_a, body_b) = (owned(a)?, owned(b)?);
-        if a == b {
-            return None;
-        }
+    /// Joins `body_a` and `body_b` in `joints` as `spec` says; `None` if the spec's anchors or
+    /// axis are not finite (or the axis has no length).
+    pub(crate) fn create(
+        &mut self,
+        joints: &mut ImpulseJointSet,
+        body_a: RigidBodyHandle,
+        body_b: RigidBodyHandle,
+        spec: JointSpec,
+    ) -> Option<JointId> {
         let point = |v: [f32; 3]| {
             v.iter()
                 .all(|c| c.is_finite())
@@ -95,20 +85,17 @@ impl PhysicsHandle<'_> {
                     .into()
             }
         };
-        let handle = self
-            .world
-            .impulse_joints
-            .insert(body_a, body_b, joint, true);
-        let id = JointId(self.joints.next);
-        self.joints.next += 1;
-        self.joints.handles.insert(id, (handle, body_a, body_b));
+        let handle = joints.insert(body_a, body_b, joint, true);
+        let id = JointId(self.next);
+        self.next += 1;
+        self.handles.insert(id, (handle, body_a, body_b));
         Some(id)
     }
 
-    /// Removes a joint; returns whether it existed.
-    pub fn remove_joint(&mut self, joint: JointId) -> bool {
-        match self.joints.handles.remove(&joint) {
-            Some((handle, _, _)) => self.world.impulse_joints.remove(handle, true).is_some(),
+    /// Removes a joint from `joints`; returns whether it existed.
+    pub(crate) fn remove(&mut self, joints: &mut ImpulseJointSet, joint: JointId) -> bool {
+        match self.handles.remove(&joint) {
+            Some((handle, _, _)) => joints.remove(handle, true).is_some(),
             None => false,
         }
     }

@@ -37,8 +37,9 @@
 //! - [`wire`] — ids, [`wire::EntityState`], [`wire::ReplicationFrame`],
 //!   [`wire::PhysicsEventsFrame`], [`wire::PhysicsOp`]; postcard behind a version byte, safe on
 //!   untrusted bytes.
-//! - `cluster_sim` — [`ClusterSim`], [`SimConfig`]: the world, spawning and despawning from
-//!   states, roles changed in place, stepping.
+//! - `cluster_sim` — [`ClusterSim`]: the world, spawning and despawning from states, roles
+//!   changed in place, stepping.
+//! - `config` — [`SimConfig`]: step length, gravity, the speed cap.
 //! - `entity` — [`BodyRole`] and [`EntityInfo`]: what the world knows of an entity besides
 //!   its body.
 //! - `handle` — [`TickContext`], [`PhysicsHandle`] (reads, raycasts, shape queries, writes).
@@ -48,6 +49,7 @@
 //! - `body` — Rapier bodies and colliders behind entities.
 //! - `contacts` — Rapier collision events as entity pairs with impulse and normal
 //!   ([`ContactEvent`]).
+//! - [`box_grid`] — boxes filed in a grid, for overlap queries without Rapier.
 //! - [`coupling`] — proxies that meet this cluster's bodies with their entity's own mass, so a
 //!   contact across the seam pushes both ways.
 //! - `validate` — NaN, infinity, rotation and shape checks before anything reaches Rapier.
@@ -59,6 +61,7 @@
 mod body;
 pub mod box_grid;
 mod cluster_sim;
+mod config;
 mod contacts;
 pub mod coupling;
 mod entity;
@@ -69,7 +72,8 @@ mod router;
 mod validate;
 pub mod wire;
 
-pub use cluster_sim::{ClusterSim, SimConfig};
+pub use cluster_sim::ClusterSim;
+pub use config::SimConfig;
 pub use contacts::ContactEvent;
 pub use coupling::{CouplingChanges, SeamImpulse};
 pub use entity::{BodyRole, EntityInfo};

@@ -218,6 +218,49 @@ impl ClusterStats {
             E::ProxyDespawned { .. } => self.proxies_despawned += 1,
             E::ProxiesCoupled { count } => self.proxies_coupled += count,
             E::ImpulsesPredicted { count } => self.impulses_predicted += count,
+            E::OpSent { .. }
+            | E::OpResent { .. }
+            | E::OpAnswered { .. }
+            | E::OpForwarded { .. }
+            | E::OpNotHere { .. }
+            | E::OpRepeated { .. }
+            | E::OpApplied { .. }
+            | E::OpDropped { .. }
+            | E::OpWindowsForgotten { .. }
+            | E::ContactReported { .. }
+            | E::ContactResent { .. }
+            | E::ContactAnswered { .. }
+            | E::ContactGivenUp { .. }
+            | E::ContactReceived { .. }
+            | E::ContactRepeated { .. }
+            | E::ContactStale { .. }
+            | E::ContactDelivered { .. }
+            | E::ContactsMerged { .. } => self.count_delivered(event),
+            E::SeamImpulseSent { .. } => self.seam_impulses_sent += 1,
+            E::SeamImpulseReceived => self.seam_impulses_received += 1,
+            E::SeamImpulseDropped => self.seam_impulses_dropped += 1,
+            E::SeamImpulseSettled { .. } => self.seam_impulses_settled += 1,
+            E::SeamImpulsesDisagreed { count } => self.seam_impulses_disagreed += count,
+            E::SeamImpulsesUnmatched { count } => self.seam_impulses_unmatched += count,
+            E::SeamImpulseRouted { .. } => self.seam_impulses_routed += 1,
+            E::SeamImpulseUnjudged => self.seam_impulses_unjudged += 1,
+            E::HandoffAsked { .. } => self.handoffs_by_policy += 1,
+            E::HandoffGiven { .. } => self.handoffs_out += 1,
+            E::HandoffTaken { .. } => self.handoffs_in += 1,
+            E::HandoffTakenBack { .. } => self.handoffs_taken_back += 1,
+            E::HandoffReclaimed { .. } => self.handoffs_reclaimed += 1,
+            E::NeighbourLost { .. } => self.neighbours_lost += 1,
+            E::NeighbourLeft { .. } => self.neighbours_left += 1,
+            E::NeighbourRejoined { .. } => self.neighbours_rejoined += 1,
+            E::EntityAdopted { .. } => self.entities_adopted += 1,
+            E::EntityReturned { .. } => self.entities_returned += 1,
+        }
+    }
+
+    /// Counts an event of a routed op or a contact report.
+    fn count_delivered(&mut self, event: &ClusterEvent) {
+        use ClusterEvent as E;
+        match *event {
             E::OpSent { issued_here, .. } => self.ops_routed += u64::from(issued_here),
             E::OpResent { .. } => self.ops_resent += 1,
             E::OpAnswered { .. } => self.ops_acked += 1,
@@ -249,24 +292,7 @@ impl ClusterStats {
             E::ContactStale { .. } => self.contacts_dropped_stale += 1,
             E::ContactDelivered { .. } => {}
             E::ContactsMerged { count } => self.contacts_merged += count,
-            E::SeamImpulseSent { .. } => self.seam_impulses_sent += 1,
-            E::SeamImpulseReceived => self.seam_impulses_received += 1,
-            E::SeamImpulseDropped => self.seam_impulses_dropped += 1,
-            E::SeamImpulseSettled { .. } => self.seam_impulses_settled += 1,
-            E::SeamImpulsesDisagreed { count } => self.seam_impulses_disagreed += count,
-            E::SeamImpulsesUnmatched { count } => self.seam_impulses_unmatched += count,
-            E::SeamImpulseRouted { .. } => self.seam_impulses_routed += 1,
-            E::SeamImpulseUnjudged => self.seam_impulses_unjudged += 1,
-            E::HandoffAsked { .. } => self.handoffs_by_policy += 1,
-            E::HandoffGiven { .. } => self.handoffs_out += 1,
-            E::HandoffTaken { .. } => self.handoffs_in += 1,
-            E::HandoffTakenBack { .. } => self.handoffs_taken_back += 1,
-            E::HandoffReclaimed { .. } => self.handoffs_reclaimed += 1,
-            E::NeighbourLost { .. } => self.neighbours_lost += 1,
-            E::NeighbourLeft { .. } => self.neighbours_left += 1,
-            E::NeighbourRejoined { .. } => self.neighbours_rejoined += 1,
-            E::EntityAdopted { .. } => self.entities_adopted += 1,
-            E::EntityReturned { .. } => self.entities_returned += 1,
+            _ => {}
         }
     }
 

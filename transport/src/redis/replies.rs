@@ -100,6 +100,9 @@ pub(super) fn accept(
     }
 }
 
+/// Where a pub/sub message's channel, pattern and payload lie in the socket's buffer.
+type Ranges = (Range<usize>, Option<Range<usize>>, Range<usize>);
+
 /// Offset range of `part` inside `whole` (`part` must be a sub-slice of `whole`).
 pub(super) fn range_in(whole: &[u8], part: &[u8]) -> Range<usize> {
     let start = part.as_ptr() as usize - whole.as_ptr() as usize;
@@ -123,6 +126,62 @@ impl RedisTransport {
         if self.config.reconnect && !self.up() {
             return Ok(false);
         }
+        if self.take_early() {
+            return Ok(true);
+        }
+        let (max_bulk, frame_limit) = (self.max_bulk(), self.frame_limit());
+        loop {
+            if self.discard > 0 {
+                self.skip_discarded();
+                if self.discard > 0 {
+                    if self.fill_more(frame_limit)? {
+                        continue;
+                    }
+                    return Ok(false);
+                }
+            }
+            match self.parse_next(max_bulk) {
+                Ok(Some((used, message))) => {
+                    self.socket.consume(used);
+                    if let Some(message) = message
+                        && self.take_buffered(message)
+                    {
+                        return Ok(true);
+                    }
+                }
+                Ok(None) => {
+                    if !self.fill_more(frame_limit)? {
+                        return Ok(false);
+                    }
+                }
+                Err(RespError::TooLarge { skip }) => {
+                    self.intake.malformed();
+                    self.discard = skip;
+                }
+                Err(RespError::Protocol(what)) => {
+                    return Err(self.disconnected(format!("protocol error: {what}")));
+                }
+            }
+        }
+    }
+
+    fn disconnected(&self, reason: String) -> ReceiveError {
+        ReceiveError::Disconnected {
+            addr: self.addr.clone(),
+            reason,
+        }
+    }
+
+    /// Reads more from the socket; `false` when nothing more has come.
+    fn fill_more(&mut self, frame_limit: usize) -> Result<bool, ReceiveError> {
+        self.socket
+            .fill(None, frame_limit)
+            .map_err(|e| self.disconnected(e.to_string()))
+    }
+
+    /// Makes the first valid message received early (while a command waited for its reply)
+    /// the current one; returns whether there was one.
+    fn take_early(&mut self) -> bool {
         while let Some(mut early) = self.early.pop_front() {
             if let Some((payload, origin)) =
                 accept(&mut self.intake, early.channel.as_bytes(), &early.wire)
@@ -130,83 +189,51 @@ impl RedisTransport {
                 early.payload = payload;
                 early.origin = origin;
                 self.current = Some(Current::Early(early));
-                return Ok(true);
+                return true;
             }
         }
-        let disconnected = |addr: &str, reason: String| ReceiveError::Disconnected {
-            addr: addr.to_owned(),
-            reason,
+        false
+    }
+
+    /// Parses the next reply in the socket's buffer: the bytes it used, and where a pub/sub
+    /// message's channel, pattern and payload lie in the buffer (`None` for another reply).
+    fn parse_next(&self, max_bulk: usize) -> Result<Option<(usize, Option<Ranges>)>, RespError> {
+        let Some((frame, used)) = resp::parse(self.socket.unparsed(), max_bulk)? else {
+            return Ok(None);
         };
-        let (max_bulk, frame_limit) = (self.max_bulk(), self.frame_limit());
-        loop {
-            if self.discard > 0 {
-                self.skip_discarded();
-                if self.discard > 0 {
-                    match self.socket.fill(None, frame_limit) {
-                        Ok(true) => continue,
-                        Ok(false) => return Ok(false),
-                        Err(e) => return Err(disconnected(&self.addr, e.to_string())),
-                    }
-                }
-            }
-            let start = self.socket.start;
-            let parsed = match resp::parse(self.socket.unparsed(), max_bulk) {
-                Ok(Some((frame, used))) => match classify(&frame) {
-                    Reply::Message {
-                        channel,
-                        pattern,
-                        wire,
-                    } => {
-                        let buf = &self.socket.buf;
-                        Ok(Some((
-                            used,
-                            Some((
-                                range_in(buf, channel),
-                                pattern.map(|p| range_in(buf, p)),
-                                range_in(buf, wire),
-                            )),
-                        )))
-                    }
-                    _ => Ok(Some((used, None))),
-                },
-                Ok(None) => Ok(None),
-                Err(e) => Err(e),
-            };
-            match parsed {
-                Ok(Some((used, message))) => {
-                    self.socket.consume(used);
-                    let Some((channel, pattern, wire)) = message else {
-                        continue;
-                    };
-                    debug_assert!(channel.start >= start);
-                    let buf = &self.socket.buf;
-                    let payload =
-                        accept(&mut self.intake, &buf[channel.clone()], &buf[wire.clone()]);
-                    if let Some((payload, origin)) = payload {
-                        let payload = wire.start + payload.start..wire.start + payload.end;
-                        self.current = Some(Current::Buffered {
-                            channel,
-                            pattern,
-                            payload,
-                            origin,
-                        });
-                        return Ok(true);
-                    }
-                }
-                Ok(None) => match self.socket.fill(None, frame_limit) {
-                    Ok(true) => {}
-                    Ok(false) => return Ok(false),
-                    Err(e) => return Err(disconnected(&self.addr, e.to_string())),
-                },
-                Err(RespError::TooLarge { skip }) => {
-                    self.intake.malformed();
-                    self.discard = skip;
-                }
-                Err(RespError::Protocol(what)) => {
-                    return Err(disconnected(&self.addr, format!("protocol error: {what}")));
-                }
-            }
-        }
+        let buf = &self.socket.buf;
+        let message = match classify(&frame) {
+            Reply::Message {
+                channel,
+                pattern,
+                wire,
+            } => Some((
+                range_in(buf, channel),
+                pattern.map(|p| range_in(buf, p)),
+                range_in(buf, wire),
+            )),
+            _ => None,
+        };
+        Ok(Some((used, message)))
+    }
+
+    /// Makes a message in the buffer the current one if it is a valid seam envelope; returns
+    /// whether it was.
+    fn take_buffered(&mut self, (channel, pattern, wire): Ranges) -> bool {
+        let buf = &self.socket.buf;
+        let Some((payload, origin)) =
+            accept(&mut self.intake, &buf[channel.clone()], &buf[wire.clone()])
+        else {
+            return false;
+        };
+        let payload = wire.start + payload.start..wire.start + payload.end;
+        self.current = Some(Current::Buffered {
+            channel,
+            pattern,
+            payload,
+            origin,
+        });
+        true
     }
 
     pub(super) fn current_message(&self) -> Option<Message<'_>> {

@@ -139,7 +139,6 @@ impl ReplicationEncoder {
     /// Writes `frame`, which [`Self::prepare`] was last given, to the start of `buffer`;
     /// returns the bytes written.
     pub fn write(&self, frame: &ReplicationFrame, buffer: &mut [u8]) -> WireResult<usize> {
-        let encoding = self.encoding;
         let len = self.len(frame.states.len());
         if self.indices.len() != frame.states.len() {
             return Err(malformed("the encoder was prepared for another frame"));
@@ -151,9 +150,16 @@ impl ReplicationEncoder {
             });
         }
         let (head, rest) = buffer[..len].split_at_mut(HEADER_LEN);
-        let header = Header {
+        head.copy_from_slice(bytemuck::bytes_of(&self.header(frame)));
+        let records = self.write_tables(rest);
+        self.write_records(frame, records);
+        Ok(len)
+    }
+
+    fn header(&self, frame: &ReplicationFrame) -> Header {
+        Header {
             version: WIRE_VERSION,
-            encoding: encoding.tag(),
+            encoding: self.encoding.tag(),
             owners: self.owners.len() as u8,
             kind: if self.delta.is_some() {
                 KIND_DELTA
@@ -164,8 +170,12 @@ impl ReplicationEncoder {
             reserved2: [0; 2],
             tick: frame.tick.to_le_bytes(),
             states: (frame.states.len() as u32).to_le_bytes(),
-        };
-        head.copy_from_slice(bytemuck::bytes_of(&header));
+        }
+    }
+
+    /// Writes the owner and spec tables (and a delta frame's head and bitmap) to the start of
+    /// `rest`; returns what follows them, the records' room.
+    fn write_tables<'b>(&self, rest: &'b mut [u8]) -> &'b mut [u8] {
         let (owners, rest) = rest.split_at_mut(self.owners.len() * OWNER_LEN);
         for (slot, owner) in owners.chunks_exact_mut(OWNER_LEN).zip(&self.owners) {
             slot.copy_from_slice(owner.0.as_bytes());
@@ -174,7 +184,7 @@ impl ReplicationEncoder {
         for (slot, spec) in specs.chunks_exact_mut(SPEC_LEN).zip(&self.specs) {
             slot.copy_from_slice(spec);
         }
-        let records = match self.delta {
+        match self.delta {
             Some((key_tick, key_states)) => {
                 let (head, rest) = rest.split_at_mut(DELTA_HEAD_LEN);
                 head.copy_from_slice(bytemuck::bytes_of(&DeltaHead {
@@ -186,7 +196,11 @@ impl ReplicationEncoder {
                 records
             }
             None => rest,
-        };
+        }
+    }
+
+    /// Writes the frame's records, in the encoding prepared, into `records`.
+    fn write_records(&self, frame: &ReplicationFrame, records: &mut [u8]) {
         let identity = |state: &EntityState, &(owner, spec): &(u8, u16)| Identity {
             id: *state.id.0.as_bytes(),
             epoch: state.epoch.to_le_bytes(),
@@ -199,7 +213,7 @@ impl ReplicationEncoder {
             spec: spec.to_le_bytes(),
         };
         let states = frame.states.iter().zip(&self.indices);
-        match encoding {
+        match self.encoding {
             StateEncoding::Exact => {
                 let records: &mut [ExactRecord] = bytemuck::cast_slice_mut(records);
                 for (record, (state, indices)) in records.iter_mut().zip(states) {
@@ -225,6 +239,5 @@ impl ReplicationEncoder {
                 }
             }
         }
-        Ok(len)
     }
 }

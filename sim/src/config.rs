@@ -1,0 +1,30 @@
+//! [`SimConfig`]: the settings of one cluster's world.
+
+use crate::wire::ClusterId;
+
+/// Settings of one cluster's world.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimConfig {
+    /// This cluster.
+    pub cluster_id: ClusterId,
+    /// Step length in seconds.
+    pub dt: f32,
+    /// Gravity, m/s².
+    pub gravity: [f32; 3],
+    /// Largest linear speed Rapier lets a body keep after a solver substep, m/s. Rapier's own
+    /// default is 400 m/s, below a rifle bullet; raise it for fast projectiles (and give them
+    /// CCD).
+    pub max_linear_velocity: f32,
+}
+
+impl SimConfig {
+    /// 60 Hz, Earth gravity along −y, Rapier's default speed cap of 400 m/s.
+    pub fn new(cluster_id: ClusterId) -> Self {
+        Self {
+            cluster_id,
+            dt: 1.0 / 60.0,
+            gravity: [0.0, -9.81, 0.0],
+            max_linear_velocity: 400.0,
+        }
+    }
+}
