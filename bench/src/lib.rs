@@ -18,6 +18,10 @@
 //! - [`node`] — `seam node`: one pod, ticking on a schedule and sleeping on its transport.
 //! - [`accuracy`] — `seam compare`: a split run against its single-world reference, tick by
 //!   tick, accuracy and cost of one setting; and the same for free-running pods.
+//! - [`record`] — recordings of a run (`--record`): per tick and cluster what it owned, proxied,
+//!   applied and was told, in a versioned format; pods' parts merged.
+//! - [`inspect`] — `seam inspect`: a recording as a page to scrub through (served live with
+//!   `seam run --inspect`), a still PNG, or the page's own timings in headless Chromium.
 //! - [`pod`] — one cluster playing its part of a scene (spawns, events, op stage times).
 //! - [`sweep`] — `seam sweep`: trials over a grid of settings, `sweep.csv` and charts.
 //! - [`ping`] — `seam ping`: one-way latency between two processes over any transport, with

@@ -82,7 +82,7 @@ pub struct ClusterConfig {
     pub max_magnitude: f32,
     /// Every cluster of the world, with its region and neighbours. With it, the survivors of a
     /// neighbour taken for dead agree, without talking, on which of them adopts each of its
-    /// entities (see `crate::adoption`), and the [`AuthorityMode::Spatial`] policy knows where
+    /// entities (see `crate::authority`), and the [`AuthorityMode::Spatial`] policy knows where
     /// its neighbours are. Empty: a dead neighbour's entities are not adopted, and `Spatial`
     /// hands nothing over.
     pub world: Vec<WorldCluster>,
@@ -101,7 +101,7 @@ pub struct ClusterConfig {
     pub state_encoding: StateEncoding,
     /// A full replication frame (a keyframe) at most every this many ticks; the frames between
     /// list only the states that changed since the keyframe and mark the rest unchanged, a bit
-    /// each (see `crate::keyframes`). Receivers see the same states either way; what it buys
+    /// each (see `crate::replication`). Receivers see the same states either way; what it buys
     /// is bytes and encoding for bodies at rest. A lost keyframe leaves a receiver with what
     /// changed since and the rest of its picture (nothing despawned) until the next one, so
     /// this bounds how long a lost frame can leave a proxy wrong. 0 or 1: every frame is a

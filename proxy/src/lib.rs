@@ -68,13 +68,13 @@
 //! overlaps this cluster's `region` grown by `spread`, or the room (extent and sweep, grown by
 //! `spread`) around one of this cluster's own bodies that has left that region: a floor whose
 //! centre is far away still reaches the seam, a fast shot is modelled before it arrives, and a
-//! body pushed over the seam meets what is there (see `interest`). Game code can widen it for
+//! body pushed over the seam meets what is there (see `replication`). Game code can widen it for
 //! a while with [`Cluster::watch`] — the reach of an explosion or a long raycast about to run:
 //! queries see only what the cluster models. A neighbour entity is spawned as a proxy the
 //! first time its owner lists it there, updated from each replication frame — `Fixed`: set to
 //! the pose; `KinematicVelocityBased`: given the velocities that carry it, position and
 //! orientation alike, to where the entity will be at the next update (so it moves between
-//! updates; see `dead_reckoning`); `Custom`: a [`CustomProxy`] — and despawned when it is of
+//! updates; see `replication`); `Custom`: a [`CustomProxy`] — and despawned when it is of
 //! no more interest or its owner stops listing it. Every received state is checked first
 //! (finite, within `max_magnitude`, a unit rotation, a shape with a size) whether or not it
 //! will be modelled. Reads of a proxy's velocity give what its owner replicated.
@@ -88,7 +88,7 @@
 //! meet, with nothing routed. Contacts between a body of this cluster and a proxy are also
 //! sent to the proxy's owner, with their impulse and normal, delivered as routed ops are (kept
 //! until answered, sent again, surfaced once per number); each cluster surfaces a contact
-//! once, whether it saw it itself or first heard of it (see `contact_merge`).
+//! once, whether it saw it itself or first heard of it (see `contacts`).
 //!
 //! **Scenery** — terrain, floors, walls — is loaded by every cluster itself
 //! ([`Cluster::spawn_scenery`]): a Fixed body owned by no cluster (`ClusterId::SCENERY`),
@@ -109,7 +109,7 @@
 //! and sends it again every `op_retry_ticks` (and at once after *not here*) to the cluster it
 //! then knows to own the target: the new owner after a hand-off, the adopter after the owner
 //! was taken for dead — or applies it itself, if the entity is now its own. An owner
-//! remembers the numbers it has settled per issuer (the last 16 384, `delivery::WINDOW`) and never
+//! remembers the numbers it has closed per issuer (the last 16 384) and never
 //! applies one twice: a repeat is answered and counted ([`ClusterStats::ops_repeated`]); a
 //! number older than the window is dropped, counted. An op older than `max_op_age_ticks` (its
 //! age counted on each holder's own clock) is dropped by the owner
@@ -129,7 +129,7 @@
 //! coupled is also added to that proxy, from the step it is written until the owner's next
 //! state of the entity: a blast on bodies of both sides pushes them apart together in the
 //! writer's world instead of ramming its own bodies into proxies still standing (see
-//! `prediction`).
+//! `contacts`).
 //!
 //! # Authority
 //!

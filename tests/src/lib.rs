@@ -5,9 +5,30 @@
 //! - this file — [`TestContext`]: a per-test isolated transport URL (a unique iceoryx2 prefix on
 //!   shared memory, unique channel names everywhere) and the Redis policy below.
 //! - `src/bin/peer.rs` — `seam-test-peer`, the child process that cross-process tests spawn.
+//! - `src/bin/node.rs` — `seam-test-node`, which is `seam node`, for the pod tests.
 //! - `tests/conformance.rs` — the transport contract, written once and run on shm, local, redis.
 //! - `tests/cross_process.rs` — shm and redis between two real processes.
-//! - `tests/alloc_free.rs` — the steady-state shm path allocates nothing (counting allocator).
+//! - `tests/alloc_free.rs` — the steady-state shm path adds no allocation to iceoryx2's own.
+//! - `tests/errors.rs` — errors that name what is wrong; passwords never shown.
+//! - `tests/access.rs` — a pod's shared memory and files are its user's only.
+//! - `tests/acceptance.rs` — the three layers end to end on every transport.
+//! - `tests/contacts.rs` — contacts across the seam against one world.
+//! - `tests/keyframes.rs` — delta frames against full frames, with frames dropped.
+//! - `tests/seams.rs` — every bundled scene split with default settings against one world.
+//! - `tests/stability.rs` — where each method breaks, pinned on both sides.
+//! - `tests/handoff.rs` — a hand-off survives a lost frame, a stale repeat changes nothing.
+//! - `tests/delivery.rs` — no routed write or contact report lost or applied twice.
+//! - `tests/garbage.rs` — untrusted input on a live cluster's channels, counted by kind.
+//! - `tests/liveness.rs` — neighbours taken for dead, killed and stopped pods, rejoining.
+//! - `tests/adoption.rs` — a dead cluster's entities adopted once each, and returned.
+//! - `tests/outage.rs` — Redis killed and restarted under the transport and under pods.
+//! - `tests/hosts.rs` — pods on simulated hosts with a bridge each.
+//! - `tests/pods.rs` — the main job end to end, over shm and Redis.
+//! - `tests/chaos.rs` — `seam chaos` end to end, short.
+//! - `tests/inspector.rs` — a recorded run's page in headless Chromium.
+//! - `tests/fuzz_corpus.rs` — every input kept for the fuzz targets, replayed.
+//! - `tests/shape.rs` — no import circle; files and functions within their bounds; every
+//!   crate's layout listing its modules, and this list every test file.
 //!
 //! Redis tests talk to `SEAM_REDIS_URL` (default `redis://127.0.0.1:6379`). When no server answers
 //! they print a skip notice and pass, unless `SEAM_REQUIRE_REDIS=1`, under which they fail.

@@ -3,7 +3,7 @@
 //! Every file under this test's prefix in `/dev/shm` and in iceoryx2's root directory must have
 //! no group or other permission bits, with one exception iceoryx2 makes by design: the 16-byte
 //! global management segment (`*.global_mgmt`, a node-id counter) is read-write for everyone.
-//! README "Access" says what that leaves a co-hosted process of another user.
+//! docs/operations.md ("Access") says what that leaves a co-hosted process of another user.
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};

@@ -415,3 +415,91 @@ fn the_checks_see_what_they_look_for() {
         ["long at line 2 (6 lines)"]
     );
 }
+
+/// The module names a source file declares (`mod x;`, `pub mod x;`, `pub(crate) mod x {`),
+/// test modules aside.
+fn declared_modules(blanked: &str) -> Vec<String> {
+    let end = tests_start(blanked).unwrap_or(blanked.len());
+    blanked[..end]
+        .lines()
+        .filter_map(|line| {
+            let line = line.trim_start();
+            let rest = line
+                .strip_prefix("pub(crate) mod ")
+                .or_else(|| line.strip_prefix("pub mod "))
+                .or_else(|| line.strip_prefix("mod "))?;
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            (!name.is_empty() && name != "tests").then_some(name)
+        })
+        .collect()
+}
+
+/// The `# Layout` section of a module root's docs (`//!` lines), if it has one.
+fn layout_section(src: &str) -> Option<String> {
+    let docs: Vec<&str> = src
+        .lines()
+        .take_while(|l| l.starts_with("//!") || l.trim().is_empty())
+        .filter_map(|l| l.strip_prefix("//!"))
+        .collect();
+    let at = docs.iter().position(|l| l.trim() == "# Layout")?;
+    let rest = docs[at + 1..]
+        .iter()
+        .take_while(|l| !l.trim_start().starts_with("# "))
+        .copied()
+        .collect::<Vec<_>>()
+        .join("\n");
+    Some(rest)
+}
+
+#[test]
+fn every_layout_lists_its_modules_and_the_tests_crate_its_files() {
+    let root = workspace();
+    let mut found = Vec::new();
+    for krate in ["transport", "sim", "proxy", "bench", "tests"] {
+        let mut files = Vec::new();
+        rust_files(&root.join(krate).join("src"), &mut files);
+        for file in files {
+            let src = std::fs::read_to_string(&file).expect("readable source");
+            let Some(layout) = layout_section(&src) else {
+                continue;
+            };
+            let name = file
+                .strip_prefix(&root)
+                .expect("in the workspace")
+                .display();
+            for module in declared_modules(&blank(&src)) {
+                let listed = [
+                    format!("`{module}`"),
+                    format!("[`{module}`]"),
+                    format!("`{module}/`"),
+                    format!("`{module}::"),
+                ]
+                .iter()
+                .any(|form| layout.contains(form.as_str()));
+                if !listed {
+                    found.push(format!("{name}: its layout does not list `{module}`"));
+                }
+            }
+        }
+    }
+    let tests_doc = std::fs::read_to_string(root.join("tests/src/lib.rs")).expect("tests crate");
+    let mut test_files = Vec::new();
+    rust_files(&root.join("tests/tests"), &mut test_files);
+    for file in test_files {
+        let listed = format!(
+            "`tests/{}`",
+            file.file_name().expect("a file").to_string_lossy()
+        );
+        if !tests_doc.contains(&listed) {
+            found.push(format!("tests/src/lib.rs does not list {listed}"));
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "layouts out of step with the tree:\n{}",
+        found.join("\n")
+    );
+}

@@ -1,5 +1,5 @@
 //! Where each method breaks, pinned: thresholds measured with `seam compare` / `seam sweep`
-//! (numbers in README's "Choosing settings"), asserted here so a drift past them fails.
+//! (numbers in docs/accuracy.md), asserted here so a drift past them fails.
 //!
 //! Trials run split in lock-step against a single-world reference, so every figure is
 //! deterministic: the margins only absorb floating-point differences between machines.

@@ -25,6 +25,9 @@
 //! - `error` — one error type per operation.
 //! - `iceoryx` — the generic iceoryx2 backend behind `shm` and `local`.
 //! - `redis` — the Redis backend.
+//! - [`auth`] — frame keys: the keyed tag a message carries when a deployment sets one.
+//! - `url` — the one reader of a URL's `?key=value` settings.
+//! - `fuzzing` — entry points for the fuzz targets in `fuzz/` (hidden; not part of the API).
 
 pub mod auth;
 mod channel;

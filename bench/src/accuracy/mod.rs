@@ -432,8 +432,8 @@ pub fn table(r: &TrialResult) -> String {
     )
 }
 
-/// Trial results as one Markdown table, a row each (`seam compare --markdown`), as README's
-/// "Choosing settings" quotes them.
+/// Trial results as one Markdown table, a row each (`seam compare --markdown`), as
+/// docs/accuracy.md quotes them.
 pub fn markdown(results: &[TrialResult]) -> String {
     use crate::markdown::{Align::*, Table};
     let mut table = Table::new(&[

@@ -1,4 +1,4 @@
-//! The inspector's view at one tick, as a PNG (for README and CI): what the page draws, without
+//! The inspector's view at one tick, as a PNG (for the docs and CI): what the page draws, without
 //! the page.
 
 use std::collections::HashMap;

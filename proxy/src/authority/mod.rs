@@ -23,7 +23,7 @@
 //!
 //! The margin is the hysteresis: a body resting on a seam, or jittering across it, stays where
 //! it is, and one handed over must come back `margin` deep before it returns. Ownership goes by
-//! the centre, not the extent (`crate::interest`): a body lies in one region by its centre,
+//! the centre, not the extent (`crate::replication`): a body lies in one region by its centre,
 //! while its extent can reach into several, and the owner models the room around a body of
 //! its that is outside its region, so nothing is missed while it is within the margin.
 //!

@@ -7,7 +7,7 @@ use super::spatial::SpatialSettings;
 pub enum AuthorityMode {
     /// Only scripted hand-offs ([`Cluster::transfer_authority`](crate::Cluster)).
     Scripted,
-    /// [`Spatial`] with these settings (the default). Needs the neighbours' regions from
+    /// [`Spatial`](super::Spatial) with these settings (the default). Needs the neighbours' regions from
     /// `ClusterConfig::world`; without them nothing is handed over.
     Spatial(SpatialSettings),
     /// A policy set with [`Cluster::set_authority_policy`](crate::Cluster) (none set: scripted).
@@ -15,7 +15,7 @@ pub enum AuthorityMode {
 }
 
 impl AuthorityMode {
-    /// [`Spatial`] with its default settings.
+    /// [`Spatial`](super::Spatial) with its default settings.
     pub fn spatial() -> Self {
         AuthorityMode::Spatial(SpatialSettings::default())
     }

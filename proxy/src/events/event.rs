@@ -171,7 +171,7 @@ pub enum ClusterEvent {
         /// The op.
         name: Name,
     },
-    /// An op received again after it was settled here: answered, not applied again.
+    /// An op received again after it was closed here: answered, not applied again.
     OpRepeated {
         /// The op.
         name: Name,
@@ -195,7 +195,7 @@ pub enum ClusterEvent {
         /// cluster the target was adopted from, if any.
         adopted_from: Option<ClusterId>,
     },
-    /// Issuers whose settled numbers were forgotten to make room.
+    /// Issuers whose closed numbers were forgotten to make room.
     OpWindowsForgotten {
         /// How many.
         count: u64,

@@ -66,10 +66,10 @@ pub struct ClusterStats {
     /// numbers kept): dropped, answered.
     pub contacts_dropped_stale: u64,
     /// Contacts seen twice — in this world and in a neighbour's report — and surfaced once
-    /// (see `crate::contact_merge`): the second copies, dropped.
+    /// (see `crate::contacts`): the second copies, dropped.
     pub contacts_merged: u64,
     /// Contacts across the seam whose impulse on a body of this cluster was sent to the other
-    /// body's owner, to settle (see `crate::settle`).
+    /// body's owner, to settle (see `crate::contacts`).
     pub seam_impulses_sent: u64,
     /// Such reports received from neighbours.
     pub seam_impulses_received: u64,
@@ -92,7 +92,7 @@ pub struct ClusterStats {
     /// here could touch it (see `seam_sim::coupling`).
     pub proxies_coupled: u64,
     /// Times an impulse game code routed to an entity's owner was added to this world's coupled
-    /// proxy of it, until the owner's frames carry it (see `crate::prediction`).
+    /// proxy of it, until the owner's frames carry it (see `crate::contacts`).
     pub impulses_predicted: u64,
     /// Entities handed to another cluster.
     pub handoffs_out: u64,
@@ -159,9 +159,9 @@ pub struct ClusterStats {
     pub ops_forwarded: u64,
     /// Routed writes sent again: unanswered after `op_retry_ticks`, or answered "not here".
     pub ops_resent: u64,
-    /// Routed writes this cluster sent that were answered as settled.
+    /// Routed writes this cluster sent that were answered done.
     pub ops_acked: u64,
-    /// Routed writes received again after being settled here: answered, not applied again.
+    /// Routed writes received again after being closed here: answered, not applied again.
     pub ops_repeated: u64,
     /// Routed writes received older than `max_op_age_ticks`: dropped as stale.
     pub ops_dropped_stale: u64,
@@ -172,14 +172,14 @@ pub struct ClusterStats {
     /// Routed writes dropped because their entity exists nowhere this cluster or the one it
     /// was sent to knows of.
     pub ops_dropped_gone: u64,
-    /// Routed writes received with a number older than the settled window of their issuer
-    /// (see `crate::delivery::WINDOW`): they cannot be told from repeats, so dropped.
+    /// Routed writes received with a number older than the window of closed numbers of their issuer
+    /// (see `WINDOW` in `crate::delivery`, 16 384): they cannot be told from repeats, so dropped.
     pub ops_dropped_window: u64,
-    /// Routed writes not sent: already `crate::delivery::MAX_UNANSWERED` unanswered for their
+    /// Routed writes not sent: already `MAX_UNANSWERED` (4 096, `crate::delivery`) unanswered for their
     /// owner.
     pub ops_dropped_queue_full: u64,
-    /// Issuers whose settled numbers were forgotten to make room (see
-    /// `crate::delivery::MAX_ISSUERS`).
+    /// Issuers whose closed numbers were forgotten to make room (see
+    /// `MAX_ISSUERS`, 256, in `crate::delivery`).
     pub op_windows_forgotten: u64,
 }
 }

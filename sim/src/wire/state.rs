@@ -46,7 +46,7 @@ pub struct BodySpec {
 }
 
 /// One entity's replicated state: the spine every neighbour receives. Its wire form is a
-/// fixed-layout record (see [`ReplicationView`]).
+/// fixed-layout record (see [`ReplicationView`](super::ReplicationView)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EntityState {
     /// The entity.
@@ -97,7 +97,7 @@ impl EntityState {
 }
 
 /// What one cluster publishes on `replication:<cluster_id>` each tick. Its wire form is
-/// fixed-layout records read in place (see [`ReplicationView`]), not postcard.
+/// fixed-layout records read in place (see [`ReplicationView`](super::ReplicationView)), not postcard.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReplicationFrame {
     /// The publishing cluster.

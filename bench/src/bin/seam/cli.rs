@@ -295,7 +295,7 @@ pub(crate) enum Command {
     ///
     /// A bad file is reported as FILE:LINE:COLUMN with the field and what is wrong. The format
     /// is described in `bench/src/scene/mod.rs`; `bench/scenes/` has one scene per class of
-    /// problem (README's scene table).
+    /// problem (the scene table of docs/accuracy.md).
     Scene {
         /// Scene files (TOML).
         #[arg(required = true)]
