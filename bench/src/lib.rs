@@ -36,7 +36,7 @@
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.
 //! - [`ledger`] — pods' ledgers of every routed op and contact report by name, and following
 //!   each name across a run's pods to its end (`seam chaos`).
-//! - [`markdown`] — tables as the documents quote them (`--markdown`).
+//! - [`document`] — reports as data ([`document::Document`]), rendered as text or Markdown.
 //! - `benches/` — criterion: `bench_transport` (publish → receive per backend), `bench_sim`
 //!   (a tick against raw Rapier, the wire), `bench_proxy` (tick cost with 0 / 1 000 / 10 000
 //!   proxies), `bench_replication` (op batches; 10 000 states end to end against the Rapier floor).
@@ -45,10 +45,10 @@ pub mod accuracy;
 pub mod bridge;
 pub mod chaos;
 pub mod console;
+pub mod document;
 pub mod inspect;
 pub mod latency;
 pub mod ledger;
-pub mod markdown;
 pub mod network;
 pub mod node;
 pub mod ops;

@@ -19,6 +19,7 @@ use std::time::Duration;
 use plotters::prelude::*;
 
 use crate::accuracy::{FreeRunning, TrialResult, TrialSettings, run_free_trial_on_hosts};
+use crate::document::{Align::*, Document, Table};
 use crate::relay::Delay;
 use crate::run::HostsPlan;
 use crate::scene::Scene;
@@ -101,47 +102,47 @@ pub fn run(
     Ok(trials)
 }
 
-/// The trials as text, one line each.
-pub fn table(trials: &[DelayTrial]) -> String {
-    let mut out = format!(
-        "{:<16} {:>9} | {:>10} {:>8} | {:>10} {:>9} | {:>15} {:>11} {:>11} | {:>9} {:>10}\n",
-        "scene",
-        "delay ms",
-        "hit recall",
-        "hits",
-        "pos RMS m",
-        "pos max m",
-        "ops sent/applied",
-        "op p50 tick",
-        "op max tick",
-        "hand-offs",
-        "jump m, m/s"
-    );
+/// What `seam network` reports: a row per scene and delay.
+pub fn document(trials: &[DelayTrial]) -> Document {
+    let mut table = Table::new(&[
+        ("scene", Left),
+        ("delay ms", Right),
+        ("hit recall", Right),
+        ("hits", Right),
+        ("pos RMS m", Right),
+        ("pos max m", Right),
+        ("ops sent/applied", Right),
+        ("op p50 tick", Right),
+        ("op max tick", Right),
+        ("hand-offs", Right),
+        ("jump m, m/s", Right),
+    ]);
     for t in trials {
         let a = &t.result.accuracy;
         let c = &t.result.cost;
-        out += &format!(
-            "{:<16} {:>9} | {:>10} {:>8} | {:>10.4} {:>9.3} | {:>15} {:>11} {:>11} | {:>9} {:>10}\n",
-            t.result.scene,
-            t.delay_ms,
+        table.row(vec![
+            t.result.scene.clone(),
+            t.delay_ms.to_string(),
             a.hit_recall.map_or("-".to_owned(), |r| format!("{r:.3}")),
             format!("{}/{}", a.hits_matched, a.hits_reference),
-            a.position_rms_m,
-            a.position_max_m,
+            format!("{:.4}", a.position_rms_m),
+            format!("{:.3}", a.position_max_m),
             format!("{}/{}", c.ops_routed, c.ops),
-            c.op_delay_p50_ticks,
-            c.op_delay_max_ticks,
+            c.op_delay_p50_ticks.to_string(),
+            c.op_delay_max_ticks.to_string(),
             format!("{} ({} untracked)", a.handoffs, a.handoffs_untracked),
             format!(
                 "{:.4}, {:.3}",
                 a.handoff_jump_position_m, a.handoff_jump_velocity_mps
-            )
-        );
+            ),
+        ]);
     }
+    let mut doc = Document::new();
+    doc.table(table);
     if let Some(t) = trials.first() {
-        out += &format!("hosts simulated as {}\n", t.simulated_as);
+        doc.line(format!("hosts simulated as {}", t.simulated_as));
     }
-    out
+    doc
 }
 
 /// Writes `network.csv` and the charts into `out`; returns the files written.

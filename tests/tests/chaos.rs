@@ -34,7 +34,7 @@ fn chaos_run_recorded(
 }
 
 fn assert_held(report: &ChaosReport) {
-    let table = chaos::table(report);
+    let table = chaos::document(report).text();
     assert!(report.holds(), "{table}");
     assert!(
         report.faults.kill >= 1 && report.faults.stop >= 1,
@@ -104,7 +104,7 @@ fn chaos_on_redis_loses_nothing() {
     assert!(
         report.faults.redis_restart >= 1,
         "{}",
-        chaos::table(&report)
+        chaos::document(&report).text()
     );
     assert!(report.recovery.reconnects >= 1);
 }

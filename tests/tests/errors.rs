@@ -284,7 +284,7 @@ fn redis_user_and_password_in_the_url_work() {
         assert!(pods_seen > 0, "the pods were looked for while they ran");
         assert!(report.pods.iter().all(|p| p.ticks == 600), "{report:?}");
         for text in [
-            run::table(&report),
+            run::document(&report).text(),
             serde_json::to_string(&report).expect("json"),
         ] {
             assert!(!text.contains(&password), "the password leaked: {text}");

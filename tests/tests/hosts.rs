@@ -50,7 +50,7 @@ fn pod<'a>(report: &'a RunReport, name: &str) -> &'a PodSummary {
 /// ways and refused none, no pod lost or refused a message, and every entity ended with one
 /// owner.
 fn assert_hosts_hold(report: &RunReport) -> String {
-    let text = run::table(report);
+    let text = run::document(report).text();
     let hosts = report
         .hosts
         .as_ref()
@@ -279,7 +279,7 @@ fn a_redis_outage_between_hosts_is_ridden_out() {
         .join()
         .expect("the run thread")
         .unwrap_or_else(|e| panic!("crossfire through an outage: {e}"));
-    let text = run::table(&report);
+    let text = run::document(&report).text();
     let c = &report.totals.cluster;
     assert!(c.neighbours_lost >= 1, "the outage was felt\n{text}");
     assert_eq!(c.neighbours_rejoined, c.neighbours_lost, "{text}");
@@ -312,7 +312,7 @@ fn network_trials_judge_every_hand_off() {
         node_command: vec![NODE.into()],
     };
     let trials = seam_bench::network::run(&plan, |_, _, _| {}).expect("a network trial");
-    let text = seam_bench::network::table(&trials);
+    let text = seam_bench::network::document(&trials).text();
     let a = &trials[0].result.accuracy;
     assert!(a.handoffs >= 1, "{text}");
     assert_eq!(a.handoffs_untracked, 0, "every hand-off judged\n{text}");

@@ -63,7 +63,11 @@ fn record_crossfire(out: &Path) -> Recording {
     let parts = PartsDir::beside(Some(out)).expect("parts folder");
     let (_ctx, plan) = crossfire_plan(&parts.dir);
     let report = run::run(&plan, &AtomicBool::new(false), |_| {}).expect("crossfire runs");
-    assert!(report.ownership.holds(), "{}", run::table(&report));
+    assert!(
+        report.ownership.holds(),
+        "{}",
+        run::document(&report).text()
+    );
     let summary = parts
         .merge_into(out, &[], "seam run")
         .expect("the parts merge");

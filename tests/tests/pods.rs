@@ -61,7 +61,7 @@ fn pod<'a>(report: &'a RunReport, name: &str) -> &'a PodSummary {
 /// by its owner (some after being forwarded once by a former owner), every hand-off taken, and
 /// every entity owned by exactly one pod at the end.
 fn assert_crossfire_holds(report: &RunReport) -> String {
-    let text = run::table(report);
+    let text = run::document(report).text();
     let (west, east) = (pod(report, "west"), pod(report, "east"));
     for p in [west, east] {
         assert_eq!(p.ticks, 360, "{} ran every tick\n{text}", p.cluster);

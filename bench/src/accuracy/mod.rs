@@ -20,6 +20,7 @@ use seam_proxy::ProxyMode;
 use seam_sim::wire::StateEncoding;
 use serde::Serialize;
 
+use crate::document::{Align::*, Document, Table};
 use crate::latency::LatencyRecorder;
 use crate::node::AuthorityArgs;
 use crate::pod::{OpStages, Part, Pod, PodSettings};
@@ -343,8 +344,20 @@ fn ratio(value: Option<f64>) -> String {
     value.map_or("-".to_owned(), |v| format!("{v:.3}"))
 }
 
-/// A trial's result as text.
-pub fn table(r: &TrialResult) -> String {
+/// What `seam compare` reports: each trial's accuracy and cost in words, then one table with
+/// a row per trial (as docs/accuracy.md quotes it with `--markdown`).
+pub fn document(results: &[TrialResult]) -> Document {
+    let mut doc = Document::new();
+    for r in results {
+        doc.line(trial_text(r));
+        doc.line("");
+    }
+    doc.table(summary(results));
+    doc
+}
+
+/// A trial's result in words.
+fn trial_text(r: &TrialResult) -> String {
     let (s, a, c) = (&r.settings, &r.accuracy, &r.cost);
     format!(
         "seam compare: {} split ({}) against one world, {} ticks\n\
@@ -432,10 +445,8 @@ pub fn table(r: &TrialResult) -> String {
     )
 }
 
-/// Trial results as one Markdown table, a row each (`seam compare --markdown`), as
-/// docs/accuracy.md quotes them.
-pub fn markdown(results: &[TrialResult]) -> String {
-    use crate::markdown::{Align::*, Table};
+/// Trial results as one table, a row each.
+fn summary(results: &[TrialResult]) -> Table {
     let mut table = Table::new(&[
         ("scene", Left),
         ("proxies", Left),
@@ -492,5 +503,5 @@ pub fn markdown(results: &[TrialResult]) -> String {
             format!("{:.1}", c.bytes_per_state),
         ]);
     }
-    table.render()
+    table
 }

@@ -59,7 +59,8 @@ use crate::redis_server::RedisServer;
 use crate::run::{PodLaunch, PodLine, RunPlan, fresh_run_id, spawn_pod};
 pub use inject::{InjectCounts, Injector};
 pub use report::{
-    ChaosReport, FaultCounts, MEMORY_BOUND_PCT, MemoryRow, MemorySample, markdown, table,
+    ChaosReport, FaultCounts, FrameCounts, MEMORY_BOUND_PCT, MemoryRow, MemorySample, OpCounts,
+    RecoveryCounts, document,
 };
 
 /// What `seam chaos` runs.
@@ -89,7 +90,7 @@ pub struct ChaosPlan {
 
 /// A fault, and what it waits for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Fault {
+pub(crate) enum Fault {
     Kill,
     Stop,
     RestartRedis,

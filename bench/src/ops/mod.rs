@@ -27,6 +27,7 @@ use seam_sim::wire::{self, ClusterId, EntityId, OpAck, PhysicsEventsFrame, Physi
 use seam_transport::redact_url;
 use serde::{Deserialize, Serialize};
 
+use crate::document::{Align::*, Document, Table, grouped};
 use crate::latency::{LatencySummary, micros};
 use crate::wait::{WaitMode, next_message};
 pub use owner::run_owner;
@@ -237,31 +238,30 @@ fn measure(
     })
 }
 
-/// The table `seam ops` prints.
-pub fn table(rows: &[OpsRow]) -> String {
-    let mut out = format!(
-        "{:<9} {:<6} {:>5} {:>5} | {:>9} {:>9} {:>9} | {:>9} | {:>9} {:>9} | {:>9} | {:>10}\n",
-        "transport",
-        "wait",
-        "batch",
-        "acks",
-        "whole p50",
-        "p99",
-        "p99.9",
-        "queue p50",
-        "xport p50",
-        "p99",
-        "apply p50",
-        "ops/s"
-    );
+/// What `seam ops` reports: the rows (times in µs; xport = published → received), then the
+/// ratios one run measured (as text, or as BENCHMARKS.md quotes them with `--markdown`).
+pub fn document(rows: &[OpsRow]) -> Document {
+    let mut table = Table::new(&[
+        ("transport", Left),
+        ("wait", Left),
+        ("batch", Right),
+        ("acks", Right),
+        ("whole p50", Right),
+        ("p99", Right),
+        ("p99.9", Right),
+        ("queue p50", Right),
+        ("xport p50", Right),
+        ("xport p99", Right),
+        ("apply p50", Right),
+        ("ops/s", Right),
+    ]);
     for r in rows {
         let s = &r.stages;
-        out += &format!(
-            "{:<9} {:<6} {:>5} {:>5} | {:>9} {:>9} {:>9} | {:>9} | {:>9} {:>9} | {:>9} | {:>10.0}\n",
-            r.transport,
-            r.wait,
-            r.batch,
-            r.acks,
+        table.row(vec![
+            r.transport.clone(),
+            r.wait.to_owned(),
+            r.batch.to_string(),
+            r.acks.to_string(),
             micros(r.p50_ns),
             micros(r.p99_ns),
             micros(r.p999_ns),
@@ -269,11 +269,14 @@ pub fn table(rows: &[OpsRow]) -> String {
             micros(s.transport.p50_ns),
             micros(s.transport.p99_ns),
             micros(s.apply.p50_ns),
-            r.ops_per_s
-        );
+            grouped(r.ops_per_s.round() as u64),
+        ]);
     }
-    out += "times in µs; xport = published → received\n";
-    out + &ratios(rows)
+    let mut doc = Document::new();
+    doc.table(table);
+    doc.line("times in µs; xport = published → received");
+    doc.line(ratios(rows));
+    doc
 }
 
 /// The redis / shm ratio of the transport stage's p50 per batch (frames without answers), and
@@ -314,41 +317,4 @@ fn ratios(rows: &[OpsRow]) -> String {
         }
     }
     out
-}
-
-/// The rows as a Markdown table (`seam ops --markdown`), as BENCHMARKS.md quotes them.
-pub fn markdown(rows: &[OpsRow]) -> String {
-    use crate::markdown::{Align::*, Table, grouped};
-    let mut table = Table::new(&[
-        ("transport", Left),
-        ("wait", Left),
-        ("batch", Right),
-        ("acks", Right),
-        ("whole p50", Right),
-        ("p99", Right),
-        ("p99.9", Right),
-        ("queue p50", Right),
-        ("xport p50", Right),
-        ("xport p99", Right),
-        ("apply p50", Right),
-        ("ops/s", Right),
-    ]);
-    for r in rows {
-        let s = &r.stages;
-        table.row(vec![
-            r.transport.clone(),
-            r.wait.to_owned(),
-            r.batch.to_string(),
-            r.acks.to_string(),
-            micros(r.p50_ns),
-            micros(r.p99_ns),
-            micros(r.p999_ns),
-            micros(s.queue.p50_ns),
-            micros(s.transport.p50_ns),
-            micros(s.transport.p99_ns),
-            micros(s.apply.p50_ns),
-            grouped(r.ops_per_s.round() as u64),
-        ]);
-    }
-    table.render() + "\n" + &ratios(rows)
 }

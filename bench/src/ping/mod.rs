@@ -16,6 +16,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::document::{Align::*, Document, Table, grouped};
 use crate::latency::{LatencyRecorder, LatencySummary, micros};
 pub use crate::wait::WaitMode;
 pub use floor::run_floor_peer;
@@ -129,26 +130,35 @@ pub fn time_rounds(
     Ok((recorder.summary(), 2.0 * iterations as f64 / elapsed))
 }
 
-/// The table `seam ping` prints.
-pub fn table(rows: &[PingRow]) -> String {
-    let mut out = format!(
-        "{:<10} {:<6} {:>8} {:>9} {:>9} {:>10} {:>10} {:>12}\n",
-        "transport", "wait", "size B", "p50 µs", "p99 µs", "p99.9 µs", "max µs", "msgs/s"
-    );
+/// What `seam ping` reports: the rows, then the ratios of p50 one run measured (as text, or as
+/// BENCHMARKS.md quotes them with `--markdown`).
+pub fn document(rows: &[PingRow]) -> Document {
+    let mut table = Table::new(&[
+        ("transport", Left),
+        ("wait", Left),
+        ("size B", Right),
+        ("p50 µs", Right),
+        ("p99 µs", Right),
+        ("p99.9 µs", Right),
+        ("max µs", Right),
+        ("msgs/s", Right),
+    ]);
     for row in rows {
-        out += &format!(
-            "{:<10} {:<6} {:>8} {:>9} {:>9} {:>10} {:>10} {:>12.0}\n",
-            row.transport,
-            row.wait,
-            row.size,
+        table.row(vec![
+            row.transport.clone(),
+            row.wait.to_owned(),
+            row.size.to_string(),
             micros(row.latency.p50_ns),
             micros(row.latency.p99_ns),
             micros(row.latency.p999_ns),
             micros(row.latency.max_ns),
-            row.msgs_per_s
-        );
+            grouped(row.msgs_per_s.round() as u64),
+        ]);
     }
-    out + &ratios(rows)
+    let mut doc = Document::new();
+    doc.table(table);
+    doc.line(ratios(rows));
+    doc
 }
 
 /// The shm / iceoryx2 and redis / shm ratios of p50 one run measured, one line each.
@@ -174,32 +184,4 @@ fn ratios(rows: &[PingRow]) -> String {
         }
     }
     out
-}
-
-/// The rows as a Markdown table (`seam ping --markdown`), as BENCHMARKS.md quotes them.
-pub fn markdown(rows: &[PingRow]) -> String {
-    use crate::markdown::{Align::*, Table, grouped};
-    let mut table = Table::new(&[
-        ("transport", Left),
-        ("wait", Left),
-        ("size B", Right),
-        ("p50 µs", Right),
-        ("p99 µs", Right),
-        ("p99.9 µs", Right),
-        ("max µs", Right),
-        ("msgs/s", Right),
-    ]);
-    for row in rows {
-        table.row(vec![
-            row.transport.clone(),
-            row.wait.to_owned(),
-            row.size.to_string(),
-            micros(row.latency.p50_ns),
-            micros(row.latency.p99_ns),
-            micros(row.latency.p999_ns),
-            micros(row.latency.max_ns),
-            grouped(row.msgs_per_s.round() as u64),
-        ]);
-    }
-    table.render() + "\n" + &ratios(rows)
 }

@@ -30,7 +30,7 @@ use seam_proxy::monotonic_ns;
 
 use crate::node::{AuthorityArgs, NodeLine, NodeProgress, NodeReport, ProxyModeArg};
 pub use hosts::{HostsPlan, HostsSummary, SIMULATED_AS};
-pub use report::{PodSummary, RunReport, markdown, table};
+pub use report::{PodSummary, RunReport, document};
 
 /// What `seam run` runs.
 pub struct RunPlan {

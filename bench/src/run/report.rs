@@ -5,7 +5,8 @@ use serde::Serialize;
 
 use super::RunPlan;
 use super::ownership::Ownership;
-use crate::latency::{LatencyRecorder, LatencySummary, micros};
+use crate::document::{Align::*, Document, Table, grouped};
+use crate::latency::{LatencyRecorder, LatencySummary};
 use crate::node::{NodeReport, ProxyModeArg, TransportCounts};
 use crate::pod::{EventCounts, OpStages, OpStagesSummary};
 
@@ -162,17 +163,58 @@ impl RunReport {
     }
 }
 
-/// The report as text.
-pub fn table(report: &RunReport) -> String {
+/// What `seam run` reports (as text, or as BENCHMARKS.md quotes it with `--markdown`): the
+/// run, a row per pod, what the pods published, the stages of every routed op applied, the
+/// hosts and bridges if there were several, the totals, and whether every entity ended owned
+/// by exactly one pod.
+pub fn document(report: &RunReport) -> Document {
+    let mut doc = Document::new();
+    doc.line(title(report));
+    doc.line("");
+    doc.table(pods_table(report));
+    doc.line(
+        "tick times in ms; overruns = ticks longer than the tick period; contacts = with \
+         proxies, sent to their owner and received; lost = messages lost to a full buffer; \
+         refused = frames refused (undecodable, other version, wrong sender, replayed, \
+         implausible tick)",
+    );
+    doc.line(bytes_line(report));
+    let recording = recording_line(report);
+    if !recording.is_empty() {
+        doc.line(recording);
+    }
+    if report.ops.ops > 0 {
+        doc.line("");
+        doc.table(stages_table(report));
+        let t = &report.ops.ticks;
+        doc.line(format!(
+            "whole in ticks (applied tick − issued tick): p50 {}, p99 {}, p99.9 {}, max {}",
+            t.p50, t.p99, t.p999, t.max
+        ));
+    } else {
+        doc.line("routed ops applied: 0");
+    }
+    if let Some(hosts) = &report.hosts {
+        doc.line("");
+        doc.line(format!("Hosts simulated as {}.", hosts.simulated_as));
+        doc.table(bridges_table(report, hosts));
+        doc.table(crossing_table(hosts));
+    }
+    doc.line("");
+    doc.line(totals_lines(report));
+    doc
+}
+
+fn title(report: &RunReport) -> String {
     let ticks = report.pods.iter().map(|p| p.ticks).max().unwrap_or(0);
     let rate = if report.rate_hz > 0.0 {
         format!("at {} Hz", report.rate_hz)
     } else {
         "as fast as possible".to_owned()
     };
-    let mut out = format!(
+    format!(
         "seam run: {} ({} entities) on {}, {} pods, {ticks} ticks {rate}, {:?} proxies, \
-         replication every {} tick(s){}, coupling {}, {:.1} s\n\n",
+         replication every {} tick(s){}, coupling {}, {:.1} s",
         report.scene,
         report.entities,
         report.transport,
@@ -182,100 +224,169 @@ pub fn table(report: &RunReport) -> String {
         if report.quantize { " quantized" } else { "" },
         if report.coupling { "on" } else { "off" },
         report.wall_s
-    );
-    out += &format!(
-        "{:<12} {:>6} | {:>6} {:>6} {:>6} {:>6} {:>5} | {:>6} {:>7} | {:>6} {:>6} {:>4} | {:>5} \
-         {:>5} | {:>4} {:>4} | {:>5} {:>5}\n",
-        "pod",
-        "ticks",
-        "p50",
-        "p99",
-        "p99.9",
-        "max",
-        "over",
-        "owned",
-        "proxies",
-        "ops>",
-        "ops<",
-        "drop",
-        "cont>",
-        "cont<",
-        "ho>",
-        "ho<",
-        "ovfl",
-        "bad"
-    );
+    )
+}
+
+/// A row per pod.
+fn pods_table(report: &RunReport) -> Table {
+    let transport = transport_name(&report.transport);
+    let mut pods = Table::new(&[
+        ("transport", Left),
+        ("pod", Left),
+        ("ticks", Right),
+        ("tick p50 ms", Right),
+        ("p99", Right),
+        ("p99.9", Right),
+        ("max", Right),
+        ("overruns", Right),
+        ("owned", Right),
+        ("proxies", Right),
+        ("ops routed", Right),
+        ("ops applied", Right),
+        ("ops dropped", Right),
+        ("contacts sent", Right),
+        ("contacts received", Right),
+        ("hand-offs out", Right),
+        ("in", Right),
+        ("lost", Right),
+        ("refused", Right),
+    ]);
     for p in &report.pods {
-        let s = &p.cluster_stats;
-        let t = &p.tick_time;
-        out += &format!(
-            "{:<12} {:>6} | {:>6} {:>6} {:>6} {:>6} {:>5} | {:>6} {:>7} | {:>6} {:>6} {:>4} | \
-             {:>5} {:>5} | {:>4} {:>4} | {:>5} {:>5}\n",
-            p.cluster,
-            p.ticks,
+        let (t, s) = (&p.tick_time, &p.cluster_stats);
+        pods.row(vec![
+            transport.clone(),
+            p.cluster.clone(),
+            grouped(p.ticks),
             millis(t.p50_ns),
             millis(t.p99_ns),
             millis(t.p999_ns),
             millis(t.max_ns),
-            p.overruns,
-            p.entities_owned,
-            p.proxies,
-            s.ops_routed,
-            s.ops_applied,
-            s.ops_dropped(),
-            s.contacts_sent,
-            s.contacts_received,
-            s.handoffs_out,
-            s.handoffs_in,
-            p.transport_stats.overflow_drops,
-            p.transport_stats.malformed_drops + s.frames_refused(),
-        );
+            grouped(p.overruns),
+            grouped(p.entities_owned as u64),
+            grouped(p.proxies as u64),
+            grouped(s.ops_routed),
+            grouped(s.ops_applied),
+            grouped(s.ops_dropped()),
+            grouped(s.contacts_sent),
+            grouped(s.contacts_received),
+            grouped(s.handoffs_out),
+            grouped(s.handoffs_in),
+            grouped(p.transport_stats.overflow_drops),
+            grouped(p.transport_stats.malformed_drops + s.frames_refused()),
+        ]);
     }
-    out += "tick times in ms; over = ticks longer than the tick period; ops> routed out, ops< \
-            applied here, drop = dropped here; cont> contacts with proxies sent to their owner, \
-            cont< received; ho> hand-offs out, ho< in; ovfl = messages lost to a full buffer, \
-            bad = frames refused (undecodable, other version, wrong sender, replayed, implausible tick)\n";
-    out += &bytes_line(report);
-    out += &recording_line(report);
-    out += "\n";
+    pods
+}
 
+/// The stages of every routed op applied, all pods merged, in µs and (the p50) in ticks.
+fn stages_table(report: &RunReport) -> Table {
     let o = &report.ops;
-    out += &format!("routed ops applied: {}\n", o.ops);
-    if o.ops > 0 {
-        let period_ns = if report.rate_hz > 0.0 {
-            Some(1e9 / report.rate_hz)
-        } else {
-            None
-        };
-        out += &format!(
-            "{:<32} {:>9} {:>9} {:>9} {:>9} | {:>9}\n",
-            "stage (µs)", "p50", "p99", "p99.9", "max", "p50 ticks"
-        );
-        for (name, s) in [
-            ("queue     issued → published", &o.queue),
-            ("transport published → received", &o.transport),
-            ("apply     received → applied", &o.apply),
-            ("whole     issued → applied", &o.whole),
-        ] {
-            let in_ticks =
-                period_ns.map_or("-".to_owned(), |p| format!("{:.3}", s.p50_ns as f64 / p));
-            out += &format!(
-                "{name:<32} {:>9} {:>9} {:>9} {:>9} | {in_ticks:>9}\n",
-                micros(s.p50_ns),
-                micros(s.p99_ns),
-                micros(s.p999_ns),
-                micros(s.max_ns)
-            );
-        }
-        out += &format!(
-            "whole in ticks (applied tick − issued tick): p50 {}, p99 {}, p99.9 {}, max {}\n",
-            o.ticks.p50, o.ticks.p99, o.ticks.p999, o.ticks.max
-        );
+    let period_ns = (report.rate_hz > 0.0).then(|| 1e9 / report.rate_hz);
+    let mut stages = Table::new(&[
+        ("transport", Left),
+        ("ops", Right),
+        ("stage", Left),
+        ("p50", Right),
+        ("p99", Right),
+        ("p99.9", Right),
+        ("max", Right),
+        ("p50 in ticks", Right),
+    ]);
+    let us = |ns: u64| grouped((ns as f64 / 1000.0).round() as u64);
+    for (i, (name, s)) in [
+        ("queue", &o.queue),
+        ("transport", &o.transport),
+        ("apply", &o.apply),
+        ("whole", &o.whole),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        stages.row(vec![
+            transport_name(&report.transport),
+            if i == 0 {
+                grouped(o.ops)
+            } else {
+                String::new()
+            },
+            name.to_owned(),
+            us(s.p50_ns),
+            us(s.p99_ns),
+            us(s.p999_ns),
+            us(s.max_ns),
+            period_ns.map_or("-".to_owned(), |p| format!("{:.3}", s.p50_ns as f64 / p)),
+        ]);
     }
+    stages
+}
+
+/// What each host's bridge carried.
+fn bridges_table(report: &RunReport, hosts: &super::HostsSummary) -> Table {
+    let mut bridges = Table::new(&[
+        ("host", Left),
+        ("pods", Left),
+        ("messages out", Right),
+        ("MB out", Right),
+        ("messages in", Right),
+        ("MB in", Right),
+        ("refused", Right),
+        ("bridge CPU % of a core", Right),
+    ]);
+    for bridge in &hosts.bridges {
+        let pods: Vec<&str> = report
+            .pods
+            .iter()
+            .zip(&hosts.layout)
+            .filter(|(_, h)| **h == bridge.host)
+            .map(|(p, _)| p.cluster.as_str())
+            .collect();
+        bridges.row(vec![
+            bridge.host.clone(),
+            pods.join(", "),
+            grouped(bridge.out.messages),
+            format!("{:.1}", bridge.out.bytes as f64 / 1e6),
+            grouped(bridge.into.messages),
+            format!("{:.1}", bridge.into.bytes as f64 / 1e6),
+            grouped(bridge.out.refused + bridge.into.refused),
+            format!("{:.1}", 100.0 * bridge.core_share()),
+        ]);
+    }
+    bridges
+}
+
+/// Routed ops on one host against those that crossed hosts.
+fn crossing_table(hosts: &super::HostsSummary) -> Table {
+    let mut crossing = Table::new(&[
+        ("routed ops", Left),
+        ("ops", Right),
+        ("transport p50 µs", Right),
+        ("p99", Right),
+        ("whole p50 µs", Right),
+    ]);
+    let us = |ns: u64| grouped((ns as f64 / 1000.0).round() as u64);
+    for (name, ops) in [
+        ("on one host", &hosts.ops_same_host),
+        ("across hosts", &hosts.ops_cross_host),
+    ] {
+        if let Some(o) = ops {
+            crossing.row(vec![
+                name.to_owned(),
+                grouped(o.ops),
+                us(o.transport.p50_ns),
+                us(o.transport.p99_ns),
+                us(o.whole.p50_ns),
+            ]);
+        }
+    }
+    crossing
+}
+
+/// The totals, outages, the Redis server's CPU, and the ownership check.
+fn totals_lines(report: &RunReport) -> String {
     let t = &report.totals;
     let c = &t.cluster;
-    out += &format!(
-        "\nentities: {} expected (spawned + fired), {} owned at the end; ops routed {}, applied {}, \
+    let mut out = format!(
+        "entities: {} expected (spawned + fired), {} owned at the end; ops routed {}, applied {}, \
          forwarded {}, dropped {}; contacts {} sent, {} received; hand-offs {} out ({} by the \
          authority policy, {:.1} a second), {} in; overruns {}; neighbours taken for dead {}\n",
         t.entities_expected,
@@ -309,18 +420,16 @@ pub fn table(report: &RunReport) -> String {
             t.dropped_while_down
         );
     }
-    if let Some(hosts) = &report.hosts {
-        out += &hosts_lines(hosts);
-    }
     if let Some(cpu) = report.redis_cpu_s {
         out += &format!(
-            "Redis server: {cpu:.2} s of CPU during the run, {:.1} % of a core\n",
+            "Redis server: {cpu:.2} s of CPU over the run's {:.1} s ({:.1} % of a core)\n",
+            report.wall_s,
             100.0 * cpu / report.wall_s.max(1e-9)
         );
     }
     let o = &report.ownership;
     out += &format!(
-        "ownership: {} entities expected, {} owned by exactly one pod, {} lost, {} owned twice{}\n",
+        "ownership: {} entities expected, {} owned by exactly one pod, {} lost, {} owned twice{}",
         o.expected,
         o.owned_once,
         o.lost.len(),
@@ -387,180 +496,7 @@ fn recording_line(report: &RunReport) -> String {
     )
 }
 
-/// The report as Markdown tables (`seam run --markdown`), as BENCHMARKS.md quotes them: one row
-/// per pod, then the routed-op stages of all pods merged.
-pub fn markdown(report: &RunReport) -> String {
-    use crate::markdown::{Align::*, Table, grouped};
-    let transport = transport_name(&report.transport);
-    let mut pods = Table::new(&[
-        ("transport", Left),
-        ("pod", Left),
-        ("tick p50 ms", Right),
-        ("p99", Right),
-        ("p99.9", Right),
-        ("max", Right),
-        ("overruns", Right),
-        ("proxies", Right),
-        ("ops applied", Right),
-        ("contacts received", Right),
-    ]);
-    for p in &report.pods {
-        let t = &p.tick_time;
-        pods.row(vec![
-            transport.clone(),
-            p.cluster.clone(),
-            millis(t.p50_ns),
-            millis(t.p99_ns),
-            millis(t.p999_ns),
-            millis(t.max_ns),
-            grouped(p.overruns),
-            grouped(p.proxies as u64),
-            grouped(p.cluster_stats.ops_applied),
-            grouped(p.cluster_stats.contacts_received),
-        ]);
-    }
-    let mut out = pods.render();
-    out += &bytes_line(report);
-    out += &recording_line(report);
-    let o = &report.ops;
-    if o.ops > 0 {
-        let period_ns = (report.rate_hz > 0.0).then(|| 1e9 / report.rate_hz);
-        let mut stages = Table::new(&[
-            ("transport", Left),
-            ("ops", Right),
-            ("stage", Left),
-            ("p50", Right),
-            ("p99", Right),
-            ("p99.9", Right),
-            ("max", Right),
-            ("p50 in ticks", Right),
-        ]);
-        let us = |ns: u64| grouped((ns as f64 / 1000.0).round() as u64);
-        for (i, (name, s)) in [
-            ("queue", &o.queue),
-            ("transport", &o.transport),
-            ("apply", &o.apply),
-            ("whole", &o.whole),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            let first = i == 0;
-            stages.row(vec![
-                transport.clone(),
-                if first { grouped(o.ops) } else { String::new() },
-                name.to_owned(),
-                us(s.p50_ns),
-                us(s.p99_ns),
-                us(s.p999_ns),
-                us(s.max_ns),
-                period_ns.map_or("-".to_owned(), |p| format!("{:.3}", s.p50_ns as f64 / p)),
-            ]);
-        }
-        out += "\n";
-        out += &stages.render();
-    }
-    if let Some(hosts) = &report.hosts {
-        let mut bridges = Table::new(&[
-            ("host", Left),
-            ("pods", Left),
-            ("messages out", Right),
-            ("MB out", Right),
-            ("messages in", Right),
-            ("MB in", Right),
-            ("refused", Right),
-            ("bridge CPU % of a core", Right),
-        ]);
-        for bridge in &hosts.bridges {
-            let pods: Vec<&str> = report
-                .pods
-                .iter()
-                .zip(&hosts.layout)
-                .filter(|(_, h)| **h == bridge.host)
-                .map(|(p, _)| p.cluster.as_str())
-                .collect();
-            bridges.row(vec![
-                bridge.host.clone(),
-                pods.join(", "),
-                grouped(bridge.out.messages),
-                format!("{:.1}", bridge.out.bytes as f64 / 1e6),
-                grouped(bridge.into.messages),
-                format!("{:.1}", bridge.into.bytes as f64 / 1e6),
-                grouped(bridge.out.refused + bridge.into.refused),
-                format!("{:.1}", 100.0 * bridge.core_share()),
-            ]);
-        }
-        out += &format!("\nHosts simulated as {}.\n\n", hosts.simulated_as);
-        out += &bridges.render();
-        let mut crossing = Table::new(&[
-            ("routed ops", Left),
-            ("ops", Right),
-            ("transport p50 µs", Right),
-            ("p99", Right),
-            ("whole p50 µs", Right),
-        ]);
-        let us = |ns: u64| grouped((ns as f64 / 1000.0).round() as u64);
-        for (name, ops) in [
-            ("on one host", &hosts.ops_same_host),
-            ("across hosts", &hosts.ops_cross_host),
-        ] {
-            if let Some(o) = ops {
-                crossing.row(vec![
-                    name.to_owned(),
-                    grouped(o.ops),
-                    us(o.transport.p50_ns),
-                    us(o.transport.p99_ns),
-                    us(o.whole.p50_ns),
-                ]);
-            }
-        }
-        out += "\n";
-        out += &crossing.render();
-    }
-    if let Some(cpu) = report.redis_cpu_s {
-        out += &format!(
-            "\nRedis server: {cpu:.2} s of CPU over the run's {:.1} s ({:.1} % of a core).\n",
-            report.wall_s,
-            100.0 * cpu / report.wall_s.max(1e-9)
-        );
-    }
-    out
-}
-
 /// `shm`, `redis` or `local` for a transport URL.
 fn transport_name(url: &str) -> String {
     url.split(['?', ':']).next().unwrap_or(url).to_owned()
-}
-
-/// The hosts of a run on several and what each bridge carried.
-fn hosts_lines(hosts: &super::HostsSummary) -> String {
-    let mut out = format!("hosts, simulated as {}:\n", hosts.simulated_as);
-    for bridge in &hosts.bridges {
-        out += &format!(
-            "  bridge of host {}: {} messages ({:.1} MB) out to Redis, {} ({:.1} MB) in, {} refused; \
-             {:.1} % of a core\n",
-            bridge.host,
-            bridge.out.messages,
-            bridge.out.bytes as f64 / 1e6,
-            bridge.into.messages,
-            bridge.into.bytes as f64 / 1e6,
-            bridge.out.refused + bridge.into.refused,
-            100.0 * bridge.core_share()
-        );
-    }
-    for (name, ops) in [
-        ("on one host", &hosts.ops_same_host),
-        ("across hosts", &hosts.ops_cross_host),
-    ] {
-        if let Some(o) = ops {
-            out += &format!(
-                "  routed ops {name}: {}, transport p50 {} µs, p99 {} µs; whole p50 {} µs\n",
-                o.ops,
-                micros(o.transport.p50_ns),
-                micros(o.transport.p99_ns),
-                micros(o.whole.p50_ns)
-            );
-        }
-    }
-    out
 }

@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use seam_bench::accuracy::TrialSettings;
+use seam_bench::document::Document;
 use seam_bench::node::{ModelArgs, NodeArgs};
 use seam_bench::ping::WaitMode;
 
@@ -448,39 +449,34 @@ pub(crate) struct Output {
 
 impl Output {
     /// Prints measured rows as a table, as Markdown, or as one JSON object per line.
-    pub(crate) fn rows<R: serde::Serialize>(
-        self,
-        rows: &[R],
-        table: fn(&[R]) -> String,
-        markdown: fn(&[R]) -> String,
-    ) {
+    pub(crate) fn rows<R: serde::Serialize>(self, rows: &[R], document: fn(&[R]) -> Document) {
         if self.json {
             for row in rows {
                 println!("{}", serde_json::to_string(row).expect("rows serialise"));
             }
-        } else if self.markdown {
-            print!("{}", markdown(rows));
         } else {
-            print!("{}", table(rows));
+            self.print(&document(rows));
+        }
+    }
+
+    /// Prints a document as text, or as Markdown with `--markdown`.
+    pub(crate) fn print(self, document: &Document) {
+        if self.markdown {
+            print!("{}", document.markdown());
+        } else {
+            print!("{}", document.text());
         }
     }
 
     /// Prints a report as a table, as Markdown, or as one JSON object.
-    pub(crate) fn report<R: serde::Serialize>(
-        self,
-        report: &R,
-        table: fn(&R) -> String,
-        markdown: fn(&R) -> String,
-    ) {
+    pub(crate) fn report<R: serde::Serialize>(self, report: &R, document: fn(&R) -> Document) {
         if self.json {
             println!(
                 "{}",
                 serde_json::to_string_pretty(report).expect("reports serialise")
             );
-        } else if self.markdown {
-            print!("{}", markdown(report));
         } else {
-            print!("{}", table(report));
+            self.print(&document(report));
         }
     }
 }

@@ -43,13 +43,11 @@ pub(crate) fn compare(
                 "{}",
                 serde_json::to_string_pretty(&result).expect("results serialise")
             );
-        } else if !output.markdown {
-            print!("{}", accuracy::table(&result));
         }
         results.push(result);
     }
-    if output.markdown {
-        print!("{}", accuracy::markdown(&results));
+    if !output.json {
+        output.print(&accuracy::document(&results));
     }
     Ok(())
 }
@@ -237,11 +235,7 @@ pub(crate) fn chaos(
             .map_err(|e| format!("cannot write {}: {e}", out.display()))?;
         eprintln!("seam chaos: {}", summary.line(out));
     }
-    output.report(
-        &report,
-        seam_bench::chaos::table,
-        seam_bench::chaos::markdown,
-    );
+    output.report(&report, seam_bench::chaos::document);
     if report.holds() {
         Ok(())
     } else {
@@ -291,7 +285,7 @@ pub(crate) fn network(
             .step(line);
     })?;
     drop(progress);
-    print!("{}", seam_bench::network::table(&trials));
+    print!("{}", seam_bench::network::document(&trials).text());
     for path in seam_bench::network::write(&trials, out)? {
         println!("wrote {}", path.display());
     }

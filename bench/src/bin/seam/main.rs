@@ -57,7 +57,7 @@ fn main() -> ExitCode {
             &record,
         )
         .and_then(|report| {
-            output.report(&report, run::table, run::markdown);
+            output.report(&report, run::document);
             if report.ownership.holds() {
                 Ok(())
             } else {
@@ -164,7 +164,7 @@ fn main() -> ExitCode {
                 std::thread::available_parallelism().map_or(0, |n| n.get())
             );
             ping::run(&plan, progress(total))
-                .map(|rows| output.rows(&rows, ping::table, ping::markdown))
+                .map(|rows| output.rows(&rows, ping::document))
                 .map_err(|e| e.to_string())
         }
         Command::Ops {
@@ -190,8 +190,7 @@ fn main() -> ExitCode {
             eprintln!(
                 "seam ops: {rounds} timed frames per row after {warmup} warm-up, one frame in flight"
             );
-            ops::run(&plan, progress(total))
-                .map(|rows| output.rows(&rows, ops::table, ops::markdown))
+            ops::run(&plan, progress(total)).map(|rows| output.rows(&rows, ops::document))
         }
         Command::Scene { files } => files.iter().try_for_each(|file| {
             let scene = seam_bench::scene::load(file).map_err(|e| e.to_string())?;
