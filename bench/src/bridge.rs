@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 use seam_proxy::{Bridge, BridgeRoutes, DirectionStats};
 use seam_sim::wire::ClusterId;
 
+use crate::error::{BenchError, BenchResult};
 use crate::pod::SceneIds;
 use crate::scene::Scene;
 
@@ -93,15 +94,18 @@ pub fn routes(
     hosts: Option<u32>,
     run_id: &str,
     host: &str,
-) -> Result<BridgeRoutes, String> {
+) -> BenchResult<BridgeRoutes> {
     let layout = scene.host_layout(hosts)?;
     if !layout.iter().any(|h| h == host) {
         let mut known = layout.clone();
         known.dedup();
-        return Err(format!(
-            "scene {:?} has no host {host:?} (hosts: {})",
-            scene.name,
-            known.join(", ")
+        return Err(BenchError::flag(
+            "--host",
+            format!(
+                "scene {:?} has no host {host:?} (hosts: {})",
+                scene.name,
+                known.join(", ")
+            ),
         ));
     }
     let ids = SceneIds::new(run_id, &scene.name);
@@ -124,12 +128,16 @@ pub fn routes(
 
 /// The shared-memory URL of `host`: `url` (an `shm` URL) with its prefix made the host's own,
 /// so no shared memory crosses simulated hosts.
-pub fn host_url(url: &str, host: &str) -> Result<String, String> {
+pub fn host_url(url: &str, host: &str) -> BenchResult<String> {
     let (scheme, query) = url.split_once('?').unwrap_or((url, ""));
     if scheme != "shm" {
-        return Err(format!(
-            "several hosts need the pods on `shm` (each host's own shared memory; Redis between hosts), not {:?}",
-            seam_transport::redact_url(url)
+        return Err(BenchError::flag(
+            "--transport",
+            format!(
+                "several hosts need the pods on `shm` (each host's own shared memory; Redis \
+                 between hosts), not {:?}",
+                seam_transport::redact_url(url)
+            ),
         ));
     }
     let mut prefix = "seam_".to_owned();
@@ -150,8 +158,8 @@ pub fn run_bridge(
     args: &BridgeArgs,
     stop: &AtomicBool,
     out: &mut impl Write,
-) -> Result<BridgeReport, String> {
-    let scene = crate::scene::load(&args.scene).map_err(|e| e.to_string())?;
+) -> BenchResult<BridgeReport> {
+    let scene = crate::scene::load(&args.scene)?;
     let routes = routes(&scene, args.hosts, &args.run_id, &args.host)?;
     let mut bridge = Bridge::start(&args.local, &args.remote, &routes)?;
     emit(
@@ -195,11 +203,11 @@ fn process_cpu() -> Duration {
     )
 }
 
-fn emit(out: &mut impl Write, line: &BridgeLine) -> Result<(), String> {
-    let text = serde_json::to_string(line).map_err(|e| e.to_string())?;
+fn emit(out: &mut impl Write, line: &BridgeLine) -> BenchResult<()> {
+    let text = serde_json::to_string(line)?;
     writeln!(out, "{text}")
         .and_then(|()| out.flush())
-        .map_err(|e| format!("cannot write to stdout: {e}"))
+        .map_err(|e| BenchError::io("write to", "stdout", e))
 }
 
 #[cfg(test)]
@@ -208,10 +216,13 @@ mod tests {
 
     #[test]
     fn host_urls_keep_settings_and_own_the_prefix() {
-        assert_eq!(host_url("shm", "a").as_deref(), Ok("shm?prefix=seam_a_"));
         assert_eq!(
-            host_url("shm?buffer=64&prefix=run7_", "b").as_deref(),
-            Ok("shm?buffer=64&prefix=run7_b_")
+            host_url("shm", "a").expect("a shm url"),
+            "shm?prefix=seam_a_"
+        );
+        assert_eq!(
+            host_url("shm?buffer=64&prefix=run7_", "b").expect("a shm url"),
+            "shm?buffer=64&prefix=run7_b_"
         );
         assert!(host_url("redis://127.0.0.1:6379", "a").is_err());
         assert!(host_url("local", "a").is_err());

@@ -36,6 +36,7 @@
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.
 //! - [`ledger`] — pods' ledgers of every routed op and contact report by name, and following
 //!   each name across a run's pods to its end (`seam chaos`).
+//! - [`error`] — [`error::BenchError`], the one error type of the crate.
 //! - [`document`] — reports as data ([`document::Document`]), rendered as text or Markdown.
 //! - `benches/` — criterion: `bench_transport` (publish → receive per backend), `bench_sim`
 //!   (a tick against raw Rapier, the wire), `bench_proxy` (tick cost with 0 / 1 000 / 10 000
@@ -46,6 +47,7 @@ pub mod bridge;
 pub mod chaos;
 pub mod console;
 pub mod document;
+pub mod error;
 pub mod inspect;
 pub mod latency;
 pub mod ledger;

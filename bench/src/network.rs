@@ -20,6 +20,7 @@ use plotters::prelude::*;
 
 use crate::accuracy::{FreeRunning, TrialResult, TrialSettings, run_free_trial_on_hosts};
 use crate::document::{Align::*, Document, Table};
+use crate::error::{BenchError, BenchResult, Context};
 use crate::relay::Delay;
 use crate::run::HostsPlan;
 use crate::scene::Scene;
@@ -57,7 +58,7 @@ pub struct NetworkPlan {
 pub fn run(
     plan: &NetworkPlan,
     mut progress: impl FnMut(usize, usize, &str),
-) -> Result<Vec<DelayTrial>, String> {
+) -> BenchResult<Vec<DelayTrial>> {
     let total = plan.scenes.len() * plan.delays_ms.len();
     let mut trials = Vec::new();
     for (path, scene) in &plan.scenes {
@@ -86,7 +87,7 @@ pub fn run(
                 &free,
                 &run_id,
             )
-            .map_err(|e| format!("{} at {delay_ms} ms: {e}", scene.name))?;
+            .context(format!("{} at {delay_ms} ms", scene.name))?;
             trials.push(DelayTrial {
                 delay_ms,
                 simulated_as: simulated_as.unwrap_or_default(),
@@ -146,11 +147,11 @@ pub fn document(trials: &[DelayTrial]) -> Document {
 }
 
 /// Writes `network.csv` and the charts into `out`; returns the files written.
-pub fn write(trials: &[DelayTrial], out: &Path) -> Result<Vec<PathBuf>, String> {
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+pub fn write(trials: &[DelayTrial], out: &Path) -> BenchResult<Vec<PathBuf>> {
+    std::fs::create_dir_all(out).map_err(|e| BenchError::io("create", out.display(), e))?;
     let csv = out.join("network.csv");
     let mut file =
-        std::fs::File::create(&csv).map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
+        std::fs::File::create(&csv).map_err(|e| BenchError::io("write", csv.display(), e))?;
     let mut text = String::from(
         "scene,delay_ms,hit_recall,hits_matched,hits_reference,position_rms_m,position_max_m,ops_routed,ops,op_delay_p50_ticks,op_delay_max_ticks,op_transport_p50_us,tick_p99_us,handoffs,handoffs_untracked,handoff_jump_position_m,handoff_jump_velocity_mps,simulated_as\n",
     );
@@ -180,7 +181,7 @@ pub fn write(trials: &[DelayTrial], out: &Path) -> Result<Vec<PathBuf>, String> 
         );
     }
     file.write_all(text.as_bytes())
-        .map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
+        .map_err(|e| BenchError::io("write", csv.display(), e))?;
     let mut written = vec![csv];
     crate::sweep::chart_font()?;
     let mut scenes: Vec<&str> = trials.iter().map(|t| t.result.scene.as_str()).collect();
@@ -206,8 +207,11 @@ pub fn write(trials: &[DelayTrial], out: &Path) -> Result<Vec<PathBuf>, String> 
 
 const SIZE: (u32, u32) = (1600, 420);
 
-fn failed<E: std::fmt::Display>(e: E) -> String {
-    format!("cannot draw a chart: {e}")
+fn failed<E: std::fmt::Display>(e: E) -> BenchError {
+    BenchError::Chart {
+        chart: "of the delays".to_owned(),
+        problem: e.to_string(),
+    }
 }
 
 /// Four panels against the delay: hit recall, routed-op delay in ticks, the largest hand-off
@@ -216,7 +220,7 @@ fn draw<DB: DrawingBackend>(
     area: DrawingArea<DB, plotters::coord::Shift>,
     scene: &str,
     rows: &[&DelayTrial],
-) -> Result<(), String> {
+) -> BenchResult<()> {
     area.fill(&WHITE).map_err(failed)?;
     let area = area
         .titled(

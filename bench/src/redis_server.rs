@@ -6,6 +6,8 @@ use std::net::{TcpListener, TcpStream};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::error::{BenchError, BenchResult};
+
 /// How long a started server may take to answer.
 const READY_WITHIN: Duration = Duration::from_secs(10);
 
@@ -17,10 +19,10 @@ pub struct RedisServer {
 
 impl RedisServer {
     /// Starts a server on a free port and waits until it answers `PING`.
-    pub fn start() -> Result<Self, String> {
+    pub fn start() -> BenchResult<Self> {
         let port = TcpListener::bind("127.0.0.1:0")
             .and_then(|listener| listener.local_addr())
-            .map_err(|e| format!("cannot find a free port for redis-server: {e}"))?
+            .map_err(|e| BenchError::io("find", "a free port for redis-server", e))?
             .port();
         let mut server = Self { port, child: None };
         server.restart()?;
@@ -47,7 +49,7 @@ impl RedisServer {
 
     /// Starts the server again on the same port (killing it first if it runs) and waits until
     /// it answers.
-    pub fn restart(&mut self) -> Result<(), String> {
+    pub fn restart(&mut self) -> BenchResult<()> {
         self.kill();
         let port = self.port.to_string();
         let child = Command::new("redis-server")
@@ -58,8 +60,10 @@ impl RedisServer {
             .stderr(Stdio::null())
             .spawn()
             .map_err(|e| {
-                format!(
-                    "cannot start redis-server ({e}); install it (apt-get install redis-server)"
+                BenchError::io(
+                    "start",
+                    "redis-server (install it: apt-get install redis-server)",
+                    e,
                 )
             })?;
         self.child = Some(child);
@@ -71,9 +75,10 @@ impl RedisServer {
             std::thread::sleep(Duration::from_millis(20));
         }
         self.kill();
-        Err(format!(
-            "redis-server on port {port} did not answer within {READY_WITHIN:?}"
-        ))
+        Err(BenchError::Timeout {
+            what: format!("redis-server on port {port} did not answer"),
+            waited: READY_WITHIN,
+        })
     }
 
     fn answers(&self) -> bool {

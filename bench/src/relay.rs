@@ -14,6 +14,8 @@ use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use crate::error::{BenchError, BenchResult};
+
 /// One-way delay a relay adds to every byte, in each direction.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Delay {
@@ -47,15 +49,15 @@ pub struct Relay {
 impl Relay {
     /// Listens on `listen` (port 0: any free port) and relays each connection to `upstream`
     /// with `delay` each way.
-    pub fn start(listen: SocketAddr, upstream: SocketAddr, delay: Delay) -> Result<Self, String> {
+    pub fn start(listen: SocketAddr, upstream: SocketAddr, delay: Delay) -> BenchResult<Self> {
         let listener = TcpListener::bind(listen)
-            .map_err(|e| format!("relay: cannot listen on {listen}: {e}"))?;
+            .map_err(|e| BenchError::io("listen on", listen, e).within("relay"))?;
         let addr = listener
             .local_addr()
-            .map_err(|e| format!("relay: no local address: {e}"))?;
+            .map_err(|e| BenchError::io("read", "its local address", e).within("relay"))?;
         listener
             .set_nonblocking(true)
-            .map_err(|e| format!("relay: {e}"))?;
+            .map_err(|e| BenchError::io("set up", "its socket", e).within("relay"))?;
         let stop = Arc::new(AtomicBool::new(false));
         let bytes = Arc::new(AtomicU64::new(0));
         let accept = {
@@ -63,7 +65,7 @@ impl Relay {
             std::thread::Builder::new()
                 .name("relay-accept".into())
                 .spawn(move || accept_loop(&listener, upstream, delay, &stop, &bytes))
-                .map_err(|e| format!("relay: cannot start: {e}"))?
+                .map_err(|e| BenchError::io("start", "its thread", e).within("relay"))?
         };
         Ok(Self {
             addr,

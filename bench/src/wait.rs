@@ -5,6 +5,8 @@ use std::time::{Duration, Instant};
 use seam_transport::Transport;
 use serde::Serialize;
 
+use crate::error::{BenchError, BenchResult};
+
 /// How long a measuring side waits for any one answer before giving up on its peer.
 pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -46,15 +48,14 @@ pub fn next_message(
     transport: &mut dyn Transport,
     wait: WaitMode,
     buf: &mut Vec<u8>,
-) -> Result<(), String> {
+) -> BenchResult<()> {
     let deadline = Instant::now() + ANSWER_TIMEOUT;
     let mut polls: u32 = 0;
     loop {
         let message = match wait {
             WaitMode::Block => transport.receive_timeout(ANSWER_TIMEOUT),
             _ => transport.try_receive(),
-        }
-        .map_err(|e| e.to_string())?;
+        }?;
         if let Some(message) = message {
             buf.clear();
             buf.extend_from_slice(message.payload);
@@ -62,7 +63,10 @@ pub fn next_message(
         }
         polls = polls.wrapping_add(1);
         if (wait == WaitMode::Block || polls.is_multiple_of(4096)) && Instant::now() > deadline {
-            return Err(format!("sent no answer within {ANSWER_TIMEOUT:?}"));
+            return Err(BenchError::Timeout {
+                what: "the peer sent no answer".to_owned(),
+                waited: ANSWER_TIMEOUT,
+            });
         }
     }
 }

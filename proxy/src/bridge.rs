@@ -34,6 +34,7 @@ use seam_transport::{Transport, redact_url};
 
 use crate::WorldCluster;
 use crate::channels::{physics_events, replication};
+use crate::error::ClusterError;
 
 /// The channels one host's bridge passes on (see the module docs).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -110,7 +111,7 @@ pub struct Bridge {
     /// Redis → shared memory.
     pub into: Arc<DirectionCounters>,
     stop: Arc<AtomicBool>,
-    threads: Vec<JoinHandle<Result<(), String>>>,
+    threads: Vec<JoinHandle<Result<(), ClusterError>>>,
 }
 
 /// How long a bridge thread sleeps on its receive before looking at the stop flag.
@@ -121,7 +122,7 @@ impl Bridge {
     /// `shm?prefix=host_a_`) and the deployment's Redis server (`remote`). Both transports of
     /// both directions are open and subscribed when this returns, so messages published from
     /// then on are passed on.
-    pub fn start(local: &str, remote: &str, routes: &BridgeRoutes) -> Result<Self, String> {
+    pub fn start(local: &str, remote: &str, routes: &BridgeRoutes) -> Result<Self, ClusterError> {
         let stop = Arc::new(AtomicBool::new(false));
         let out = Arc::new(DirectionCounters::default());
         let into = Arc::new(DirectionCounters::default());
@@ -139,7 +140,7 @@ impl Bridge {
             let thread = std::thread::Builder::new()
                 .name(format!("bridge-{name}"))
                 .spawn(move || pass_on(&from, &to, &channels, &counters, &stop, opened))
-                .map_err(|e| format!("cannot start the bridge's {name} thread: {e}"))?;
+                .map_err(|_| ClusterError::BridgeThread("cannot start a bridge thread"))?;
             threads.push(thread);
         }
         let mut bridge = Self {
@@ -151,22 +152,22 @@ impl Bridge {
         for opened in ready {
             if opened.recv().is_err() {
                 // The thread ended before opening: its error says why.
-                return Err(bridge.stop().err().unwrap_or_else(|| {
-                    "a bridge thread ended before opening its transports".to_owned()
-                }));
+                return Err(bridge.stop().err().unwrap_or(ClusterError::BridgeThread(
+                    "a bridge thread ended before opening its transports",
+                )));
             }
         }
         Ok(bridge)
     }
 
     /// Stops both directions and waits for them; the first error either met, if any.
-    pub fn stop(&mut self) -> Result<(), String> {
+    pub fn stop(&mut self) -> Result<(), ClusterError> {
         self.stop.store(true, Ordering::Relaxed);
         let mut first = Ok(());
         for thread in self.threads.drain(..) {
             let result = thread
                 .join()
-                .unwrap_or_else(|_| Err("a bridge thread panicked".to_owned()));
+                .unwrap_or(Err(ClusterError::BridgeThread("a bridge thread panicked")));
             if first.is_ok() {
                 first = result;
             }
@@ -194,21 +195,24 @@ fn pass_on(
     counters: &DirectionCounters,
     stop: &AtomicBool,
     opened: std::sync::mpsc::Sender<()>,
-) -> Result<(), String> {
-    let open = |url: &str| {
-        seam_transport::open(url).map_err(|e| format!("bridge: {}: {e}", redact_url(url)))
+) -> Result<(), ClusterError> {
+    let at = |url: &str| {
+        let url = redact_url(url).to_string();
+        move |e: ClusterError| ClusterError::Bridge {
+            url,
+            source: Box::new(e),
+        }
     };
+    let open = |url: &str| seam_transport::open(url).map_err(|e| at(url)(e.into()));
     let mut source: Box<dyn Transport> = open(from)?;
     let mut sink: Box<dyn Transport> = open(to)?;
     for channel in channels {
-        source
-            .subscribe(channel)
-            .map_err(|e| format!("bridge: {}: {e}", redact_url(from)))?;
+        source.subscribe(channel).map_err(|e| at(from)(e.into()))?;
         // Publishing ports made now: the first message costs no more than the next.
         let _ = sink.advertise(channel, 0);
     }
     let _ = opened.send(());
-    let failed = |e: seam_transport::ReceiveError| format!("bridge: {}: {e}", redact_url(from));
+    let failed = |e: seam_transport::ReceiveError| at(from)(e.into());
     let mut batch = Vec::new();
     while !stop.load(Ordering::Relaxed) {
         // Sleep until something comes, then take whatever else is already here: the batch goes

@@ -51,6 +51,18 @@ pub enum ClusterError {
     /// than 255 owners or 65 535 distinct body specs).
     #[error("cannot encode a frame: {0}")]
     Encode(#[from] seam_sim::wire::WireError),
+    /// A bridge direction could not open its transports, or stopped on an error.
+    #[error("bridge: {url}: {source}")]
+    Bridge {
+        /// The transport that failed (password redacted).
+        url: String,
+        /// What failed.
+        #[source]
+        source: Box<ClusterError>,
+    },
+    /// A bridge thread could not start, or ended without an error of its own.
+    #[error("bridge: {0}")]
+    BridgeThread(&'static str),
     /// A free-running schedule that cannot be kept (see `Schedule::new`).
     #[error("schedule: {0}")]
     Schedule(String),

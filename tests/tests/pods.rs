@@ -167,7 +167,9 @@ fn stopping_a_run_stops_the_pods_and_keeps_their_reports() {
 fn pods_that_cannot_start_fail_the_run_clearly() {
     let plan = plan("crossfire", "redis://127.0.0.1:1".into(), 60.0, 60);
     let started = Instant::now();
-    let error = run::run(&plan, &AtomicBool::new(false), |_| {}).expect_err("no server, no run");
+    let error = run::run(&plan, &AtomicBool::new(false), |_| {})
+        .expect_err("no server, no run")
+        .to_string();
     assert!(
         error.contains("\"west\"") && error.contains("\"east\""),
         "{error}"

@@ -158,7 +158,8 @@ fn a_trace_names_an_entity_of_the_scene() {
     }
     for name in ["nobody", "crates-east", "crates-east#99"] {
         let error = run_trial(crossfire, &settings, Some(name))
-            .expect_err("an entity the scene does not have");
+            .expect_err("an entity the scene does not have")
+            .to_string();
         assert!(
             error.contains(name) && error.contains("name#i"),
             "{name}: {error}"

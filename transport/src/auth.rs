@@ -15,6 +15,8 @@
 
 use std::fmt;
 
+use crate::url::SettingError;
+
 /// Bytes of a message tag.
 pub const TAG_LEN: usize = 16;
 
@@ -42,24 +44,28 @@ impl FrameKey {
 
     /// The key a URL setting names: `key=SECRET` or `key_file=PATH`; `None` for another
     /// setting.
-    pub(crate) fn from_setting(key: &str, value: &str) -> Option<Result<Self, String>> {
+    pub(crate) fn from_setting(key: &str, value: &str) -> Option<Result<Self, SettingError>> {
         match key {
-            "key" if value.is_empty() => Some(Err("`key` must not be empty".into())),
+            "key" if value.is_empty() => Some(Err(SettingError::EmptyKey)),
             "key" => Some(Ok(Self::derive(value.as_bytes()))),
-            "key_file" => Some(
-                std::fs::read(value)
-                    .map_err(|e| format!("cannot read key_file {value:?}: {e}"))
-                    .and_then(|bytes| {
-                        let secret = bytes.strip_suffix(b"\n").unwrap_or(&bytes);
-                        if secret.is_empty() {
-                            Err(format!("key_file {value:?} is empty"))
-                        } else {
-                            Ok(Self::derive(secret))
-                        }
-                    }),
-            ),
+            "key_file" => Some(Self::read_file(value)),
             _ => None,
         }
+    }
+
+    /// The key a key file holds (its bytes, a trailing newline ignored).
+    fn read_file(path: &str) -> Result<Self, SettingError> {
+        let bytes = std::fs::read(path).map_err(|source| SettingError::KeyFile {
+            path: path.to_owned(),
+            source,
+        })?;
+        let secret = bytes.strip_suffix(b"\n").unwrap_or(&bytes);
+        if secret.is_empty() {
+            return Err(SettingError::EmptyKeyFile {
+                path: path.to_owned(),
+            });
+        }
+        Ok(Self::derive(secret))
     }
 
     /// The tag of a message: `payload` published by `publisher` as number `seq` on `channel`.

@@ -84,8 +84,8 @@ pub fn open(url: &str) -> Result<Box<dyn Transport>, OpenError> {
         config
             .set(setting.key, setting.value)
             .map_err(|reason| OpenError::InvalidUrl {
-                url: url.to_owned(),
-                reason,
+                url: redact_url(url),
+                reason: reason.to_string(),
             })?;
     }
     Ok(match backend {

@@ -10,6 +10,27 @@ pub(crate) struct Setting<'a> {
     pub(crate) value: &'a str,
 }
 
+/// Why a backend refused one setting of its URL (the reason an [`crate::OpenError::InvalidUrl`]
+/// gives).
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum SettingError {
+    #[error("`key` must not be empty")]
+    EmptyKey,
+    #[error("cannot read key_file {path:?}: {source}")]
+    KeyFile {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("key_file {path:?} is empty")]
+    EmptyKeyFile { path: String },
+    #[error("`{key}` must be a positive whole number, got {value:?}")]
+    NotPositive { key: String, value: String },
+    #[error("`prefix` must be 1 to 64 of [A-Za-z0-9_.-], got {value:?}")]
+    Prefix { value: String },
+    #[error("unknown setting `{key}` (known: {known})")]
+    Unknown { key: String, known: &'static str },
+}
+
 /// `url` split at its first `?` into the part before it and the settings after it, empty
 /// ones skipped.
 pub(crate) fn split(url: &str) -> (&str, impl Iterator<Item = Setting<'_>>) {

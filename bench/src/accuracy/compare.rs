@@ -8,6 +8,7 @@ use serde::Serialize;
 
 use seam_proxy::Region;
 
+use crate::error::{BenchError, BenchResult};
 use crate::pod::Pod;
 use crate::scene::Scene;
 
@@ -222,14 +223,17 @@ impl Comparison {
     /// Prints, on stderr after each tick, where the entity `name` (`name#i` for a grid copy)
     /// is in the split run and in the single world, who simulates it, and how far apart the
     /// two are: where an error comes from. An error if the reference has no such entity.
-    pub fn trace(&mut self, reference: &Pod, name: &str) -> Result<(), String> {
+    pub fn trace(&mut self, reference: &Pod, name: &str) -> BenchResult<()> {
         let sim = reference.cluster().sim();
         let id = sim
             .entities()
             .map(|(id, _)| id)
             .find(|&id| reference.entity_name(id) == name)
             .ok_or_else(|| {
-                format!("--trace: no entity {name:?} in the scene (a grid copy is `name#i`)")
+                BenchError::flag(
+                    "--trace",
+                    format!("no entity {name:?} in the scene (a grid copy is `name#i`)"),
+                )
             })?;
         self.traced = Some(id);
         crate::console::line(

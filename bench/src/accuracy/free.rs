@@ -14,6 +14,7 @@ use std::time::Duration;
 use seam_sim::wire::{EntityId, IdMap};
 
 use super::{Accuracy, Cost, TrialResult, TrialSettings};
+use crate::error::{BenchResult, Context};
 use crate::node::ProxyModeArg;
 use crate::pod::{Part, Pod, PodSettings};
 use crate::run::{self, RunPlan};
@@ -42,7 +43,7 @@ pub fn run_free_trial(
     transport: &str,
     free: &FreeRunning,
     run_id: &str,
-) -> Result<TrialResult, String> {
+) -> BenchResult<TrialResult> {
     run_free_trial_on_hosts(scene_path, scene, settings, transport, free, run_id)
         .map(|(result, _)| result)
 }
@@ -56,7 +57,7 @@ pub fn run_free_trial_on_hosts(
     transport: &str,
     free: &FreeRunning,
     run_id: &str,
-) -> Result<(TrialResult, Option<String>), String> {
+) -> BenchResult<(TrialResult, Option<String>)> {
     let proxy_mode = match settings.proxy_mode {
         seam_proxy::ProxyMode::Fixed => ProxyModeArg::Fixed,
         _ => ProxyModeArg::Kinematic,
@@ -95,7 +96,7 @@ pub fn run_free_trial_on_hosts(
             )
         },
     )
-    .map_err(|e| format!("reference: {e}"))?;
+    .context("reference")?;
     // The reference states each recorded flip is judged against: (entity, tick).
     let mut wanted: std::collections::HashMap<u64, Vec<EntityId>> = Default::default();
     for flip in nodes.iter().flat_map(|n| &n.flips) {
@@ -103,7 +104,7 @@ pub fn run_free_trial_on_hosts(
     }
     let mut truth_at: TruthAt = Default::default();
     for _ in 0..ticks {
-        reference.tick().map_err(|e| format!("reference: {e}"))?;
+        reference.tick().context("reference")?;
         let sim = reference.cluster().sim();
         if let Some(ids) = wanted.get(&sim.tick()) {
             for &id in ids {

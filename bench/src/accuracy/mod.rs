@@ -13,6 +13,7 @@
 mod compare;
 mod free;
 
+use crate::error::{BenchError, BenchResult, Context};
 use crate::record::{EntityTable, PodRecorder};
 use std::time::{Duration, Instant};
 
@@ -191,7 +192,7 @@ pub fn run_trial(
     scene: &Scene,
     settings: &TrialSettings,
     trace: Option<&str>,
-) -> Result<TrialResult, String> {
+) -> BenchResult<TrialResult> {
     run_recorded_trial(scene, settings, trace, None)
 }
 
@@ -212,7 +213,7 @@ pub fn run_recorded_trial(
     settings: &TrialSettings,
     trace: Option<&str>,
     record: Option<&std::path::Path>,
-) -> Result<TrialResult, String> {
+) -> BenchResult<TrialResult> {
     let scene = settings.apply(scene.clone());
     let pod_settings = |transport: String| PodSettings {
         proxy_mode: settings.proxy_mode,
@@ -234,7 +235,7 @@ pub fn run_recorded_trial(
         &Part::Reference,
         &pod_settings(format!("local?prefix={prefix}ref_")),
     )
-    .map_err(|e| format!("reference: {e}"))?;
+    .context("reference")?;
     let split_url = format!("local?prefix={prefix}split_");
     let mut pods = scene
         .clusters
@@ -245,7 +246,7 @@ pub fn run_recorded_trial(
                 &Part::Cluster(c.name.clone()),
                 &pod_settings(split_url.clone()),
             )
-            .map_err(|e| format!("{}: {e}", c.name))
+            .context(&c.name)
         })
         .collect::<Result<Vec<_>, _>>()?;
 
@@ -259,14 +260,14 @@ pub fn run_recorded_trial(
     let mut recorder = match record {
         Some(path) => {
             let table = EntityTable::new(&scene, TRIAL_RUN, scene.ticks, 0.0, "seam compare", true);
-            Some(PodRecorder::create(path, table).map_err(|e| e.to_string())?)
+            Some(PodRecorder::create(path, table)?)
         }
         None => None,
     };
-    let recording = |e: crate::record::RecordError| format!("recording: {e}");
+    let recording = |e: crate::record::RecordError| BenchError::from(e).within("recording");
     for _ in 0..scene.ticks {
         let begun = Instant::now();
-        reference.tick().map_err(|e| format!("reference: {e}"))?;
+        reference.tick().context("reference")?;
         let took = begun.elapsed().as_nanos() as u64;
         reference_time.record(took);
         if let Some(recorder) = &mut recorder {
@@ -274,8 +275,7 @@ pub fn run_recorded_trial(
         }
         for (pod, time) in pods.iter_mut().zip(&mut tick_times) {
             let begun = Instant::now();
-            pod.tick_lockstep(LOCKSTEP_TIMEOUT)
-                .map_err(|e| format!("{}: {e}", pod.name()))?;
+            pod.tick_lockstep(LOCKSTEP_TIMEOUT).context(pod.name())?;
             let took = begun.elapsed().as_nanos() as u64;
             time.record(took);
             proxies_sum += pod.population().1 as u64;

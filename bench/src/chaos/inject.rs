@@ -22,6 +22,8 @@ use seam_sim::wire::{self, ClusterId, IdMap, ReplicationFrame, WIRE_VERSION};
 use seam_transport::Transport;
 use serde::Serialize;
 
+use crate::error::{BenchError, BenchResult};
+
 /// What the injector sent, and how many subscribers it reached.
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct InjectCounts {
@@ -48,12 +50,10 @@ pub struct Injector {
 
 impl Injector {
     /// Opens `url` and listens to the replication channels of `clusters`.
-    pub fn new(url: &str, clusters: Vec<ClusterId>, seed: u64) -> Result<Self, String> {
-        let mut transport = seam_transport::open(url).map_err(|e| e.to_string())?;
+    pub fn new(url: &str, clusters: Vec<ClusterId>, seed: u64) -> BenchResult<Self> {
+        let mut transport = seam_transport::open(url)?;
         for &cluster in &clusters {
-            transport
-                .subscribe(&replication(cluster))
-                .map_err(|e| e.to_string())?;
+            transport.subscribe(&replication(cluster))?;
         }
         Ok(Self {
             transport,
@@ -71,8 +71,8 @@ impl Injector {
     }
 
     /// Takes the frames that arrived, keeping each cluster's latest.
-    pub fn observe(&mut self) -> Result<(), String> {
-        while let Some(message) = self.transport.try_receive().map_err(|e| e.to_string())? {
+    pub fn observe(&mut self) -> BenchResult<()> {
+        while let Some(message) = self.transport.try_receive()? {
             if let Ok(frame) = ReplicationFrame::decode(message.payload)
                 && self
                     .latest
@@ -100,18 +100,15 @@ impl Injector {
 
     /// Publishes `payload` on `channel`; returns how many pods it reached (`listening` is 1 on
     /// the replication channels, which the injector itself subscribes to).
-    fn send(&mut self, channel: &str, payload: &[u8], listening: usize) -> Result<u64, String> {
-        let reached = self
-            .transport
-            .publish(channel, payload)
-            .map_err(|e| e.to_string())?;
+    fn send(&mut self, channel: &str, payload: &[u8], listening: usize) -> BenchResult<u64> {
+        let reached = self.transport.publish(channel, payload)?;
         Ok(reached.saturating_sub(listening) as u64)
     }
 
     /// One burst on every channel (see the module docs). Call it only while every pod runs:
     /// a frame delivered to a pod that dies is not counted anywhere, and a forged frame of a
     /// dead cluster would make it look alive.
-    pub fn burst(&mut self) -> Result<(), String> {
+    pub fn burst(&mut self) -> BenchResult<()> {
         self.earlier.clone_from(&self.latest);
         self.observe()?;
         for index in 0..self.clusters.len() {
@@ -164,8 +161,8 @@ impl Injector {
 }
 
 /// A frame as pods publish it by default.
-fn encode(frame: &ReplicationFrame) -> Result<Vec<u8>, String> {
+fn encode(frame: &ReplicationFrame) -> BenchResult<Vec<u8>> {
     frame
         .encode(wire::StateEncoding::Exact)
-        .map_err(|e| e.to_string())
+        .map_err(BenchError::from)
 }

@@ -10,6 +10,8 @@ use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
 
+use crate::error::{BenchError, BenchResult};
+
 /// Where ChromeDriver is looked for (`SEAM_CHROMEDRIVER` first).
 const DRIVERS: [&str; 2] = ["/usr/bin/chromedriver", "/usr/lib/chromium/chromedriver"];
 /// Where Chromium is looked for (`SEAM_CHROMIUM` first).
@@ -24,11 +26,19 @@ fn find(var: &str, paths: &[&str]) -> Option<PathBuf> {
 }
 
 /// The browser and driver binaries, or why they are missing.
-pub fn binaries() -> Result<(PathBuf, PathBuf), String> {
-    let driver = find("SEAM_CHROMEDRIVER", &DRIVERS)
-        .ok_or("no chromedriver (install Debian's chromium-driver, or set SEAM_CHROMEDRIVER)")?;
-    let browser = find("SEAM_CHROMIUM", &BROWSERS)
-        .ok_or("no chromium (install Debian's chromium, or set SEAM_CHROMIUM)")?;
+pub fn binaries() -> BenchResult<(PathBuf, PathBuf)> {
+    let driver = find("SEAM_CHROMEDRIVER", &DRIVERS).ok_or_else(|| {
+        BenchError::process(
+            "chromedriver",
+            "not found (install Debian's chromium-driver, or set SEAM_CHROMEDRIVER)",
+        )
+    })?;
+    let browser = find("SEAM_CHROMIUM", &BROWSERS).ok_or_else(|| {
+        BenchError::process(
+            "chromium",
+            "not found (install Debian's chromium, or set SEAM_CHROMIUM)",
+        )
+    })?;
     Ok((browser, driver))
 }
 
@@ -43,7 +53,7 @@ pub struct Browser {
 impl Browser {
     /// Starts ChromeDriver and a headless Chromium session (a fresh profile, no network
     /// services, a 1 400 × 1 000 window).
-    pub fn start() -> Result<Self, String> {
+    pub fn start() -> BenchResult<Self> {
         let (browser, driver) = binaries()?;
         let port = free_port()?;
         let profile =
@@ -54,7 +64,7 @@ impl Browser {
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
-            .map_err(|e| format!("cannot start {}: {e}", driver.display()))?;
+            .map_err(|e| BenchError::io("start", driver.display(), e))?;
         let mut this = Self {
             driver: child,
             port,
@@ -66,7 +76,10 @@ impl Browser {
             match this.request("GET", "/status", None) {
                 Ok(v) if v["value"]["ready"] == json!(true) => break,
                 _ if Instant::now() > deadline => {
-                    return Err(format!("{} did not answer in 20 s", driver.display()));
+                    return Err(BenchError::Timeout {
+                        what: format!("{} did not answer", driver.display()),
+                        waited: Duration::from_secs(20),
+                    });
                 }
                 _ => std::thread::sleep(Duration::from_millis(100)),
             }
@@ -94,19 +107,21 @@ impl Browser {
         let answer = this.request("POST", "/session", Some(&caps))?;
         this.session = answer["value"]["sessionId"]
             .as_str()
-            .ok_or_else(|| format!("chromedriver started no session: {answer}"))?
+            .ok_or_else(|| {
+                BenchError::process("chromedriver", format!("started no session: {answer}"))
+            })?
             .to_owned();
         Ok(this)
     }
 
     /// Opens `url` and waits for the page to load.
-    pub fn goto(&self, url: &str) -> Result<(), String> {
+    pub fn goto(&self, url: &str) -> BenchResult<()> {
         self.command("POST", "url", Some(&json!({ "url": url })))
             .map(drop)
     }
 
     /// The value of `script` (a function body: `return …;`) run in the page.
-    pub fn eval(&self, script: &str) -> Result<Value, String> {
+    pub fn eval(&self, script: &str) -> BenchResult<Value> {
         self.command(
             "POST",
             "execute/sync",
@@ -116,46 +131,57 @@ impl Browser {
     }
 
     /// Polls `expression` until it is true or `timeout` passes.
-    pub fn wait_for(&self, expression: &str, timeout: Duration) -> Result<(), String> {
+    pub fn wait_for(&self, expression: &str, timeout: Duration) -> BenchResult<()> {
         let deadline = Instant::now() + timeout;
         loop {
             if self.eval(&format!("return !!({expression});"))? == json!(true) {
                 return Ok(());
             }
             if Instant::now() > deadline {
-                return Err(format!("{expression} still false after {timeout:?}"));
+                return Err(BenchError::Timeout {
+                    what: format!("{expression} did not become true"),
+                    waited: timeout,
+                });
             }
             std::thread::sleep(Duration::from_millis(50));
         }
     }
 
     /// Saves a screenshot of the window as PNG.
-    pub fn screenshot(&self, path: &Path) -> Result<(), String> {
+    pub fn screenshot(&self, path: &Path) -> BenchResult<()> {
         let v = self.command("GET", "screenshot", None)?;
-        let text = v["value"].as_str().ok_or("no screenshot in the answer")?;
-        let png = super::base64_decode(text).ok_or("the screenshot is not base64")?;
-        std::fs::write(path, png).map_err(|e| format!("cannot write {}: {e}", path.display()))
+        let text = v["value"]
+            .as_str()
+            .ok_or_else(|| BenchError::process("chromedriver", "no screenshot in the answer"))?;
+        let png = super::base64_decode(text)
+            .ok_or_else(|| BenchError::process("chromedriver", "the screenshot is not base64"))?;
+        std::fs::write(path, png).map_err(|e| BenchError::io("write", path.display(), e))
     }
 
-    fn command(&self, method: &str, what: &str, body: Option<&Value>) -> Result<Value, String> {
+    fn command(&self, method: &str, what: &str, body: Option<&Value>) -> BenchResult<Value> {
         let path = format!("/session/{}/{what}", self.session);
         let v = self.request(method, &path, body)?;
         if let Some(error) = v["value"]["error"].as_str() {
-            return Err(format!(
-                "browser: {error}: {}",
-                v["value"]["message"].as_str().unwrap_or("")
+            return Err(BenchError::process(
+                "browser",
+                format!("{error}: {}", v["value"]["message"].as_str().unwrap_or("")),
             ));
         }
         Ok(v)
     }
 
-    fn request(&self, method: &str, path: &str, body: Option<&Value>) -> Result<Value, String> {
+    fn request(&self, method: &str, path: &str, body: Option<&Value>) -> BenchResult<Value> {
         let body = body.map(Value::to_string).unwrap_or_default();
-        let mut stream = TcpStream::connect(("127.0.0.1", self.port))
-            .map_err(|e| format!("chromedriver on port {}: {e}", self.port))?;
+        let mut stream = TcpStream::connect(("127.0.0.1", self.port)).map_err(|e| {
+            BenchError::io(
+                "connect to",
+                format!("chromedriver on port {}", self.port),
+                e,
+            )
+        })?;
         stream
             .set_read_timeout(Some(Duration::from_secs(120)))
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| BenchError::io("set a timeout on", "chromedriver's socket", e))?;
         write!(
             stream,
             "{method} {path} HTTP/1.1\r\nhost: 127.0.0.1:{}\r\ncontent-type: application/json\r\n\
@@ -163,7 +189,7 @@ impl Browser {
             self.port,
             body.len()
         )
-        .map_err(|e| format!("chromedriver: {e}"))?;
+        .map_err(|e| BenchError::io("write to", "chromedriver", e))?;
         // Read until the body is whole: the driver may keep the connection open.
         let mut answer = Vec::new();
         let mut buf = [0u8; 64 * 1024];
@@ -182,14 +208,17 @@ impl Browser {
                     None => None,
                 };
                 if let Some(body) = whole {
-                    return serde_json::from_slice(&body).map_err(|e| format!("chromedriver: {e}"));
+                    return Ok(serde_json::from_slice(&body)?);
                 }
             }
             let n = stream
                 .read(&mut buf)
-                .map_err(|e| format!("chromedriver: {e}"))?;
+                .map_err(|e| BenchError::io("read from", "chromedriver", e))?;
             if n == 0 {
-                return Err("chromedriver closed the connection mid-answer".into());
+                return Err(BenchError::process(
+                    "chromedriver",
+                    "closed the connection mid-answer",
+                ));
             }
             answer.extend_from_slice(&buf[..n]);
         }
@@ -223,12 +252,10 @@ fn unchunk(mut body: &[u8]) -> Option<Vec<u8>> {
     }
 }
 
-fn free_port() -> Result<u16, String> {
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
-    listener
-        .local_addr()
-        .map(|a| a.port())
-        .map_err(|e| e.to_string())
+fn free_port() -> BenchResult<u16> {
+    let io = |e| BenchError::io("find", "a free port on loopback", e);
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").map_err(io)?;
+    listener.local_addr().map(|a| a.port()).map_err(io)
 }
 
 /// What the page measured of itself.
@@ -248,7 +275,7 @@ pub struct PageFigures {
 
 /// Loads `url` in a fresh headless browser and reads the page's own load time and scrub rate
 /// (`frames` random ticks drawn back to back).
-pub fn measure(url: &str, frames: u32) -> Result<PageFigures, String> {
+pub fn measure(url: &str, frames: u32) -> BenchResult<PageFigures> {
     let browser = Browser::start()?;
     browser.goto(url)?;
     browser.wait_for(

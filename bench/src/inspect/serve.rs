@@ -8,6 +8,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use super::{LiveRecording, PageMode, page};
+use crate::error::{BenchError, BenchResult};
 
 /// What a server serves.
 #[derive(Clone)]
@@ -27,13 +28,14 @@ pub struct Server {
 
 impl Server {
     /// Serves `served` on `bind` (`127.0.0.1:0` picks a free port).
-    pub fn start(bind: &str, served: Served) -> Result<Self, String> {
-        let listener =
-            TcpListener::bind(bind).map_err(|e| format!("cannot listen on {bind}: {e}"))?;
-        let addr = listener.local_addr().map_err(|e| e.to_string())?;
+    pub fn start(bind: &str, served: Served) -> BenchResult<Self> {
+        let listener = TcpListener::bind(bind).map_err(|e| BenchError::io("listen on", bind, e))?;
+        let addr = listener
+            .local_addr()
+            .map_err(|e| BenchError::io("listen on", bind, e))?;
         listener
             .set_nonblocking(true)
-            .map_err(|e| format!("cannot listen on {bind}: {e}"))?;
+            .map_err(|e| BenchError::io("listen on", bind, e))?;
         let stop = Arc::new(AtomicBool::new(false));
         let html = Arc::new(page(match served {
             Served::Recording(_) => PageMode::Fetch,

@@ -6,6 +6,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
+use crate::error::{BenchError, BenchResult};
 use crate::record::{Chunk, Header, Recording, StreamTick};
 use crate::scene::SceneShape;
 
@@ -117,11 +118,7 @@ impl View {
 }
 
 /// Draws `recording` at `options.tick` into a PNG at `out`; returns the tick drawn.
-pub fn render_still(
-    recording: &Recording,
-    options: &StillOptions,
-    out: &Path,
-) -> Result<u64, String> {
+pub fn render_still(recording: &Recording, options: &StillOptions, out: &Path) -> BenchResult<u64> {
     crate::sweep::charts::chart_font()?;
     let header = &recording.header;
     let ticks: Vec<u64> = {
@@ -134,7 +131,7 @@ pub fn render_still(
         .iter()
         .find(|&&t| t >= options.tick)
         .or(ticks.last())
-        .ok_or("the recording has no ticks")?;
+        .ok_or(crate::record::RecordError::Empty)?;
     let reference = header.reference_stream();
     let mut slot: HashMap<u16, &StreamTick> = HashMap::new();
     for chunk in &recording.chunks {
@@ -158,7 +155,10 @@ pub fn render_still(
     let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
 
     let root = BitMapBackend::new(out, options.size).into_drawing_area();
-    let fail = |e: &dyn std::fmt::Display| format!("cannot draw {}: {e}", out.display());
+    let fail = |e: &dyn std::fmt::Display| BenchError::Chart {
+        chart: out.display().to_string(),
+        problem: e.to_string(),
+    };
     root.fill(&WHITE).map_err(|e| fail(&e))?;
     let view = View::fit(header, options.size);
     for (i, c) in header.clusters.iter().enumerate() {

@@ -26,6 +26,7 @@ use std::time::{Duration, Instant};
 use seam_proxy::{AuthorityMode, ProxyMode, Schedule, SpatialSettings, monotonic_ns};
 use seam_sim::wire::StateEncoding;
 
+use crate::error::{BenchError, BenchResult, Context};
 use crate::latency::LatencyRecorder;
 use crate::ledger::LedgerFile;
 use crate::pod::{Part, Pod, PodSettings};
@@ -271,20 +272,20 @@ pub struct NodeArgs {
 const PROGRESS_EVERY: Duration = Duration::from_millis(250);
 
 /// Set when SIGINT or SIGTERM arrives.
-pub fn stop_flag() -> Result<Arc<AtomicBool>, String> {
+pub fn stop_flag() -> BenchResult<Arc<AtomicBool>> {
     let flag = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(signal, Arc::clone(&flag))
-            .map_err(|e| format!("cannot handle signal {signal}: {e}"))?;
+            .map_err(|e| BenchError::io("handle", format!("signal {signal}"), e))?;
     }
     Ok(flag)
 }
 
-fn emit(out: &mut impl Write, line: &NodeLine) -> Result<(), String> {
-    let text = serde_json::to_string(line).map_err(|e| e.to_string())?;
+fn emit(out: &mut impl Write, line: &NodeLine) -> BenchResult<()> {
+    let text = serde_json::to_string(line)?;
     writeln!(out, "{text}")
         .and_then(|()| out.flush())
-        .map_err(|e| format!("cannot write to stdout: {e}"))
+        .map_err(|e| BenchError::io("write to", "stdout", e))
 }
 
 /// Runs one pod to the end of its ticks or until `stop` is set; writes JSON lines to `out`.
@@ -292,10 +293,8 @@ pub fn run_node(
     args: &NodeArgs,
     stop: &AtomicBool,
     out: &mut impl Write,
-) -> Result<NodeReport, String> {
-    let scene = crate::scene::load(&args.scene)
-        .map_err(|e| e.to_string())?
-        .stacked(args.layers)?;
+) -> BenchResult<NodeReport> {
+    let scene = crate::scene::load(&args.scene)?.stacked(args.layers)?;
     let part = match (&args.cluster, args.reference) {
         (Some(name), false) => Part::Cluster(name.clone()),
         _ => Part::Reference,
@@ -313,10 +312,12 @@ pub fn run_node(
         ..PodSettings::new(&args.transport, &args.run_id)
     };
     let shown = seam_transport::redact_url(&args.transport);
-    let mut pod = Pod::new(&scene, &part, &settings)
-        .map_err(|e| format!("{}: {shown}: {e}", pod_name(&part)))?;
+    let mut pod =
+        Pod::new(&scene, &part, &settings).context(format!("{}: {shown}", pod_name(&part)))?;
     let ticks = args.ticks.unwrap_or(scene.ticks);
-    let fail = |e: seam_proxy::ClusterError| format!("{}: {shown}: {e}", pod_name(&part));
+    let fail = |e: seam_proxy::ClusterError| {
+        BenchError::from(e).within(format!("{}: {shown}", pod_name(&part)))
+    };
     // Tick k is due at anchor + k · period; pods of one run share the anchor.
     let now = monotonic_ns();
     let schedule = Schedule::new(args.rate, ticks).map_err(fail)?;
@@ -345,21 +346,18 @@ pub fn run_node(
         Some(path) => {
             let table =
                 EntityTable::new(&scene, &args.run_id, ticks, args.rate, "seam node", false);
-            Some(
-                PodRecorder::create(path, table)
-                    .map_err(|e| format!("{}: {e}", pod_name(&part)))?,
-            )
+            Some(PodRecorder::create(path, table).context(pod_name(&part))?)
         }
         None => None,
     };
     let mut ledger = match &args.ledger {
-        Some(path) => Some(
-            LedgerFile::create(path, pod.cluster().id())
-                .map_err(|e| format!("{}: ledger {}: {e}", pod_name(&part), path.display()))?,
-        ),
+        Some(path) => Some(LedgerFile::create(path, pod.cluster().id()).map_err(|e| {
+            BenchError::io("create the ledger", path.display(), e).within(pod_name(&part))
+        })?),
         None => None,
     };
-    let ledger_failed = |e: std::io::Error| format!("{}: ledger: {e}", pod_name(&part));
+    let ledger_failed =
+        |e: std::io::Error| BenchError::io("write", "the ledger", e).within(pod_name(&part));
     let started = Instant::now();
     let mut tick_time = LatencyRecorder::default();
     let mut record_time = LatencyRecorder::default();
@@ -385,7 +383,7 @@ pub fn run_node(
             let stepped = begun.elapsed().as_nanos() as u64;
             recorder
                 .observe(&pod, stepped)
-                .map_err(|e| format!("{}: recording: {e}", pod.name()))?;
+                .context(format!("{}: recording", pod.name()))?;
             record_time.record(begun.elapsed().as_nanos() as u64 - stepped);
         }
         let took = begun.elapsed().as_nanos() as u64;
@@ -444,7 +442,7 @@ pub fn run_node(
             }
             recorder
                 .finish()
-                .map_err(|e| format!("{}: recording: {e}", pod.name()))?;
+                .context(format!("{}: recording", pod.name()))?;
             counts
         }
         None => (0, 0),
@@ -503,9 +501,9 @@ pub fn run_node(
         "pod done"
     );
     if let Some(path) = &args.metrics {
-        let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        let text = serde_json::to_string_pretty(&report)?;
         std::fs::write(path, text)
-            .map_err(|e| format!("cannot write metrics to {}: {e}", path.display()))?;
+            .map_err(|e| BenchError::io("write metrics to", path.display(), e))?;
     }
     emit(out, &NodeLine::Report(Box::new(report.clone())))?;
     Ok(report)

@@ -28,6 +28,7 @@ use seam_transport::redact_url;
 use serde::{Deserialize, Serialize};
 
 use crate::document::{Align::*, Document, Table, grouped};
+use crate::error::{BenchError, BenchResult};
 use crate::latency::{LatencySummary, micros};
 use crate::wait::{WaitMode, next_message};
 pub use owner::run_owner;
@@ -100,7 +101,7 @@ pub struct OpsRow {
 }
 
 /// Runs every (transport, batch) row, calling `progress` before each.
-pub fn run(plan: &OpsPlan, mut progress: impl FnMut(&str)) -> Result<Vec<OpsRow>, String> {
+pub fn run(plan: &OpsPlan, mut progress: impl FnMut(&str)) -> BenchResult<Vec<OpsRow>> {
     let mut rows = Vec::new();
     for transport in &plan.transports {
         let wait = plan.wait.resolve(transport);
@@ -125,17 +126,18 @@ fn measure(
     wait: WaitMode,
     plan: &OpsPlan,
     row: usize,
-) -> Result<OpsRow, String> {
+) -> BenchResult<OpsRow> {
     let shown = redact_url(url);
-    let fail = |what: &str, e: String| format!("{shown}: {what}: {e}");
-    let mut transport = seam_transport::open(url).map_err(|e| fail("open", e.to_string()))?;
+    let fail =
+        |what: &str, e: &dyn std::fmt::Display| BenchError::process(&shown, format!("{what}: {e}"));
+    let mut transport = seam_transport::open(url).map_err(|e| fail("open", &e))?;
     let owner = ClusterId::random();
     let events = seam_proxy::physics_events(owner);
     let ack = format!("seam-ops-ack:{}-{row}", std::process::id());
     transport
         .subscribe(&ack)
-        .map_err(|e| fail("subscribe", e.to_string()))?;
-    let exe = std::env::current_exe().map_err(|e| fail("peer", e.to_string()))?;
+        .map_err(|e| fail("subscribe", &e))?;
+    let exe = std::env::current_exe().map_err(|e| fail("peer", &e))?;
     let mut child = Command::new(exe)
         .args([
             "ops-owner",
@@ -150,9 +152,9 @@ fn measure(
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .spawn()
-        .map_err(|e| fail("cannot start the owner", e.to_string()))?;
+        .map_err(|e| fail("cannot start the owner", &e))?;
     let mut buf = Vec::new();
-    next_message(transport.as_mut(), WaitMode::Block, &mut buf).map_err(|e| fail("owner", e))?;
+    next_message(transport.as_mut(), WaitMode::Block, &mut buf).map_err(|e| fail("owner", &e))?;
 
     let mut frame = PhysicsEventsFrame {
         from: ClusterId::random(),
@@ -203,27 +205,27 @@ fn measure(
                 frame.published_ns = monotonic_ns();
                 wire::encode_into(&frame, out).ok()
             })
-            .map_err(|e| fail("publish", e.to_string()))?;
-        next_message(transport.as_mut(), wait, &mut buf).map_err(|e| fail("owner", e))?;
+            .map_err(|e| fail("publish", &e))?;
+        next_message(transport.as_mut(), wait, &mut buf).map_err(|e| fail("owner", &e))?;
     }
     let elapsed = started.elapsed().as_secs_f64();
     transport
         .publish(&events, owner::STOP)
-        .map_err(|e| fail("publish", e.to_string()))?;
+        .map_err(|e| fail("publish", &e))?;
     let mut line = String::new();
     let stdout = child
         .stdout
         .take()
-        .ok_or_else(|| fail("owner", "no stdout".into()))?;
+        .ok_or_else(|| fail("owner", &"no stdout"))?;
     BufReader::new(stdout)
         .read_line(&mut line)
-        .map_err(|e| fail("owner report", e.to_string()))?;
-    let status = child.wait().map_err(|e| fail("owner", e.to_string()))?;
+        .map_err(|e| fail("owner report", &e))?;
+    let status = child.wait().map_err(|e| fail("owner", &e))?;
     if !status.success() {
-        return Err(fail("owner", format!("exited with {status}")));
+        return Err(fail("owner", &format!("exited with {status}")));
     }
     let stages: StageReport =
-        serde_json::from_str(&line).map_err(|e| fail("owner report", format!("{e}: {line:?}")))?;
+        serde_json::from_str(&line).map_err(|e| fail("owner report", &format!("{e}: {line:?}")))?;
     Ok(OpsRow {
         transport: transport.backend().name().to_owned(),
         wait: wait.name(),

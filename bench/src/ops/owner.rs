@@ -5,6 +5,7 @@ use seam_sim::wire::{self, BodySpec, EntityState, PhysicsEventsFrame, Shape};
 use seam_sim::{BodyRole, ClusterSim, SimConfig};
 
 use super::{StageReport, TARGET};
+use crate::error::BenchResult;
 use crate::latency::LatencyRecorder;
 use crate::wait::{WaitMode, next_message};
 
@@ -13,9 +14,9 @@ pub(super) const STOP: &[u8] = b"stop";
 
 /// Applies every op of every frame on `events` at once, acknowledges each frame on `ack`, and at
 /// the end prints the stage report as one JSON line.
-pub fn run_owner(url: &str, events: &str, ack: &str, wait: WaitMode) -> Result<(), String> {
-    let mut transport = seam_transport::open(url).map_err(|e| e.to_string())?;
-    transport.subscribe(events).map_err(|e| e.to_string())?;
+pub fn run_owner(url: &str, events: &str, ack: &str, wait: WaitMode) -> BenchResult<()> {
+    let mut transport = seam_transport::open(url)?;
+    transport.subscribe(events)?;
     let here = seam_sim::wire::ClusterId::random();
     let mut sim = ClusterSim::new(SimConfig {
         gravity: [0.0; 3],
@@ -24,11 +25,8 @@ pub fn run_owner(url: &str, events: &str, ack: &str, wait: WaitMode) -> Result<(
     sim.spawn(
         &EntityState::new(TARGET, here, BodySpec::new(Shape::ball(0.5))),
         BodyRole::Dynamic,
-    )
-    .map_err(|e| e.to_string())?;
-    transport
-        .publish(ack, b"ready")
-        .map_err(|e| e.to_string())?;
+    )?;
+    transport.publish(ack, b"ready")?;
     let (mut whole, mut queue, mut transport_stage, mut apply) = (
         LatencyRecorder::default(),
         LatencyRecorder::default(),
@@ -43,9 +41,9 @@ pub fn run_owner(url: &str, events: &str, ack: &str, wait: WaitMode) -> Result<(
         if buf == STOP {
             break;
         }
-        let frame: PhysicsEventsFrame = wire::decode(&buf).map_err(|e| e.to_string())?;
+        let frame: PhysicsEventsFrame = wire::decode(&buf)?;
         for routed in &frame.ops {
-            sim.apply_op(&routed.op).map_err(|e| e.to_string())?;
+            sim.apply_op(&routed.op)?;
             let applied_ns = monotonic_ns();
             if frame.tick == 1 {
                 ops += 1;
@@ -55,7 +53,7 @@ pub fn run_owner(url: &str, events: &str, ack: &str, wait: WaitMode) -> Result<(
                 apply.record(applied_ns.saturating_sub(received_ns));
             }
         }
-        transport.publish(ack, b"ok").map_err(|e| e.to_string())?;
+        transport.publish(ack, b"ok")?;
     }
     let report = StageReport {
         ops,
@@ -64,9 +62,6 @@ pub fn run_owner(url: &str, events: &str, ack: &str, wait: WaitMode) -> Result<(
         transport: transport_stage.summary(),
         apply: apply.summary(),
     };
-    println!(
-        "{}",
-        serde_json::to_string(&report).map_err(|e| e.to_string())?
-    );
+    println!("{}", serde_json::to_string(&report)?);
     Ok(())
 }

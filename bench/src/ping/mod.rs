@@ -17,7 +17,10 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::document::{Align::*, Document, Table, grouped};
+use crate::error::BenchResult;
+pub use crate::error::PingError;
 use crate::latency::{LatencyRecorder, LatencySummary, micros};
+pub use crate::wait::ANSWER_TIMEOUT;
 pub use crate::wait::WaitMode;
 pub use floor::run_floor_peer;
 pub use peer::run_peer;
@@ -56,29 +59,6 @@ pub struct PingRow {
     pub msgs_per_s: f64,
 }
 
-/// An error that ends a ping run.
-#[derive(Debug, thiserror::Error)]
-pub enum PingError {
-    /// The transport could not be opened or used.
-    #[error("{transport}: {reason}")]
-    Transport {
-        /// Transport URL (password redacted).
-        transport: String,
-        /// What failed.
-        reason: String,
-    },
-    /// The peer did not answer in time or exited.
-    #[error("{transport}: the peer {reason}")]
-    Peer {
-        /// Transport URL (password redacted).
-        transport: String,
-        /// What happened.
-        reason: String,
-    },
-}
-
-pub use crate::wait::ANSWER_TIMEOUT;
-
 /// Channel names of one row, unique to this process and row.
 pub fn channels(row: usize) -> (String, String) {
     let run = format!("{}-{row}", std::process::id());
@@ -114,8 +94,8 @@ pub fn run(plan: &PingPlan, mut progress: impl FnMut(&str)) -> Result<Vec<PingRo
 pub fn time_rounds(
     warmup: u64,
     iterations: u64,
-    mut round: impl FnMut() -> Result<(), String>,
-) -> Result<(LatencySummary, f64), String> {
+    mut round: impl FnMut() -> BenchResult<()>,
+) -> BenchResult<(LatencySummary, f64)> {
     for _ in 0..warmup {
         round()?;
     }

@@ -5,25 +5,18 @@ use std::process::{Child, Command, Stdio};
 use seam_transport::redact_url;
 
 use super::{PingError, PingPlan, PingRow, WaitMode, channels, time_rounds};
+use crate::error::{BenchError, BenchResult};
 use crate::wait::next_message;
 
 /// The peer side: echo `count` messages from `ping` back on `pong`, then wait for the last one.
-pub fn run_peer(
-    url: &str,
-    ping: &str,
-    pong: &str,
-    count: u64,
-    wait: WaitMode,
-) -> Result<(), String> {
-    let mut transport = seam_transport::open(url).map_err(|e| e.to_string())?;
-    transport.subscribe(ping).map_err(|e| e.to_string())?;
-    transport
-        .publish(pong, b"ready")
-        .map_err(|e| e.to_string())?;
+pub fn run_peer(url: &str, ping: &str, pong: &str, count: u64, wait: WaitMode) -> BenchResult<()> {
+    let mut transport = seam_transport::open(url)?;
+    transport.subscribe(ping)?;
+    transport.publish(pong, b"ready")?;
     let mut buf = Vec::new();
     for _ in 0..count {
         next_message(transport.as_mut(), wait, &mut buf)?;
-        transport.publish(pong, &buf).map_err(|e| e.to_string())?;
+        transport.publish(pong, &buf)?;
     }
     // The measuring side sends one more message once it has read every answer.
     next_message(transport.as_mut(), WaitMode::Block, &mut buf)
@@ -31,20 +24,24 @@ pub fn run_peer(
 
 enum PeerHandle {
     Process(Child),
-    Thread(std::thread::JoinHandle<Result<(), String>>),
+    Thread(std::thread::JoinHandle<BenchResult<()>>),
 }
 
 impl PeerHandle {
-    fn finish(self) -> Result<(), String> {
+    fn finish(self) -> BenchResult<()> {
         match self {
             PeerHandle::Process(mut child) => {
-                let status = child.wait().map_err(|e| e.to_string())?;
+                let status = child
+                    .wait()
+                    .map_err(|e| BenchError::io("wait for", "the peer", e))?;
                 status
                     .success()
                     .then_some(())
-                    .ok_or_else(|| format!("exited with {status}"))
+                    .ok_or_else(|| BenchError::process("the peer", format!("exited with {status}")))
             }
-            PeerHandle::Thread(handle) => handle.join().map_err(|_| "panicked".to_owned())?,
+            PeerHandle::Thread(handle) => handle
+                .join()
+                .map_err(|_| BenchError::process("the peer thread", "panicked"))?,
         }
     }
 }
@@ -62,9 +59,9 @@ pub(super) fn measure(
         transport: shown.clone(),
         reason,
     };
-    let peer_error = |reason: String| PingError::Peer {
+    let peer_error = |reason: BenchError| PingError::Peer {
         transport: shown.clone(),
-        reason,
+        reason: reason.to_string(),
     };
     let mut transport = seam_transport::open(url).map_err(|e| transport_error(e.to_string()))?;
     let (ping, pong) = channels(row);
@@ -79,7 +76,8 @@ pub(super) fn measure(
             run_peer(&url, &ping, &pong, count, wait)
         }))
     } else {
-        let exe = std::env::current_exe().map_err(|e| peer_error(e.to_string()))?;
+        let exe = std::env::current_exe()
+            .map_err(|e| peer_error(BenchError::io("find", "seam itself", e)))?;
         let child = Command::new(exe)
             .args([
                 "ping-peer",
@@ -93,21 +91,22 @@ pub(super) fn measure(
             .args(["--count", &count.to_string(), "--wait", wait.name()])
             .stdin(Stdio::null())
             .spawn()
-            .map_err(|e| peer_error(format!("could not start: {e}")))?;
+            .map_err(|e| peer_error(BenchError::io("start", "the peer", e)))?;
         PeerHandle::Process(child)
     };
     let mut buf = Vec::new();
     next_message(transport.as_mut(), WaitMode::Block, &mut buf).map_err(peer_error)?;
     let payload = vec![0xA5u8; size];
     let (latency, msgs_per_s) = time_rounds(plan.warmup, plan.iterations, || {
-        transport
-            .publish(&ping, &payload)
-            .map_err(|e| e.to_string())?;
+        transport.publish(&ping, &payload)?;
         next_message(transport.as_mut(), wait, &mut buf)?;
         if buf.len() == size {
             Ok(())
         } else {
-            Err(format!("answered {} bytes to {size}", buf.len()))
+            Err(BenchError::process(
+                "the peer",
+                format!("answered {} bytes to {size}", buf.len()),
+            ))
         }
     })
     .map_err(peer_error)?;

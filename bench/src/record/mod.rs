@@ -291,6 +291,9 @@ pub enum RecordError {
     /// The header does not parse.
     #[error("recording header: {0}")]
     Header(String),
+    /// It holds no tick to show.
+    #[error("the recording has no ticks")]
+    Empty,
     /// A chunk does not parse.
     #[error("recording chunk at tick {tick:?}: {why}")]
     Chunk {

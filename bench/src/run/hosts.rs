@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
 use crate::bridge::{BridgeLine, BridgeReport, host_url};
+use crate::error::{BenchError, BenchResult};
 use crate::node::NodeReport;
 use crate::pod::{OpStages, OpStagesSummary};
 use crate::relay::{Delay, Relay};
@@ -114,7 +115,7 @@ const READY_TIMEOUT: Duration = Duration::from_secs(20);
 impl Bridges {
     /// The host of each cluster of `scene` and, on more than one host, each host's bridge
     /// started and listening. `None` for a run on one host.
-    pub(super) fn start(plan: &RunPlan, scene: &Scene) -> Result<Option<Self>, String> {
+    pub(super) fn start(plan: &RunPlan, scene: &Scene) -> BenchResult<Option<Self>> {
         let layout = scene.host_layout(plan.hosts.count)?;
         let mut hosts = layout.clone();
         hosts.dedup();
@@ -126,13 +127,13 @@ impl Bridges {
         let program = plan
             .node_command
             .first()
-            .ok_or("no command to start a bridge")?;
+            .ok_or_else(|| BenchError::process("seam", "no command to start a bridge"))?;
         if let Some(delayed) = &plan.hosts.delayed_host
             && !hosts.contains(delayed)
         {
-            return Err(format!(
-                "--delayed-host {delayed:?}: the run's hosts are {}",
-                hosts.join(", ")
+            return Err(BenchError::flag(
+                "--delayed-host",
+                format!("{delayed:?}: the run's hosts are {}", hosts.join(", ")),
             ));
         }
         let delayed_host = plan
@@ -150,7 +151,7 @@ impl Bridges {
         let namespaces = if plan.hosts.namespaces {
             Namespaces::create(&tag, &hosts, &plan.hosts.redis, delay)
         } else {
-            Err("namespaces turned off".to_owned())
+            Err(BenchError::flag("--no-namespaces", "namespaces turned off"))
         };
         let (namespaces, simulated_as, loopback_relay) = match namespaces {
             Ok(made) => {
@@ -202,8 +203,10 @@ impl Bridges {
             }
             let mut child = command
                 .spawn()
-                .map_err(|e| format!("cannot start the bridge of host {host:?}: {e}"))?;
-            let stdout = child.stdout.take().ok_or("the bridge has no stdout")?;
+                .map_err(|e| BenchError::io("start", format!("the bridge of host {host:?}"), e))?;
+            let stdout = child.stdout.take().ok_or_else(|| {
+                BenchError::process(format!("the bridge of host {host:?}"), "no stdout")
+            })?;
             bridges.children.push(child);
             bridges.hosts.push(host.clone());
             let (ready, ready_rx) = mpsc::channel();
@@ -213,10 +216,12 @@ impl Bridges {
             match ready_rx.recv_timeout(READY_TIMEOUT) {
                 Ok(()) => {}
                 Err(_) => {
-                    return Err(format!(
-                        "the bridge of host {host:?} did not get ready within {} s (its error is above)",
-                        READY_TIMEOUT.as_secs()
-                    ));
+                    return Err(BenchError::Timeout {
+                        what: format!(
+                            "the bridge of host {host:?} did not get ready (its error is above)"
+                        ),
+                        waited: READY_TIMEOUT,
+                    });
                 }
             }
         }
@@ -224,7 +229,7 @@ impl Bridges {
     }
 
     /// The transport URL of the pod of cluster number `index`.
-    pub(super) fn pod_url(&self, plan: &RunPlan, index: usize) -> Result<String, String> {
+    pub(super) fn pod_url(&self, plan: &RunPlan, index: usize) -> BenchResult<String> {
         host_url(&plan.transport, &self.layout[index])
     }
 
@@ -240,7 +245,7 @@ impl Bridges {
     }
 
     /// Stops every bridge and gathers their reports.
-    pub(super) fn finish(mut self) -> Result<HostsSummary, String> {
+    pub(super) fn finish(mut self) -> BenchResult<HostsSummary> {
         self.signal_all();
         let mut bridges = Vec::new();
         let mut problems = Vec::new();
@@ -250,7 +255,9 @@ impl Bridges {
             .zip(std::mem::take(&mut self.children))
             .zip(std::mem::take(&mut self.readers))
         {
-            let status = child.wait().map_err(|e| format!("bridge {host:?}: {e}"))?;
+            let status = child.wait().map_err(|e| {
+                BenchError::io("wait for", format!("the bridge of host {host:?}"), e)
+            })?;
             match reader.join().ok().flatten() {
                 Some(report) if status.success() => bridges.push(report),
                 _ => problems.push(format!(
@@ -259,7 +266,7 @@ impl Bridges {
             }
         }
         if !problems.is_empty() {
-            return Err(problems.join("\n"));
+            return Err(BenchError::process("bridges", problems.join("\n")));
         }
         Ok(HostsSummary {
             simulated_as: std::mem::take(&mut self.simulated_as),
@@ -321,7 +328,7 @@ pub(super) fn in_namespace(namespace: Option<&str>, program: &std::ffi::OsStr) -
 }
 
 /// A relay on loopback in front of the Redis server of `redis`, delaying by `delay`.
-fn loopback_relay(redis: &str, delay: Delay) -> Result<Relay, String> {
+fn loopback_relay(redis: &str, delay: Delay) -> BenchResult<Relay> {
     let upstream = super::netns::redis_addr(redis)?;
     let any = std::net::SocketAddr::new(std::net::Ipv4Addr::LOCALHOST.into(), 0);
     Relay::start(any, upstream, delay)

@@ -28,6 +28,7 @@ use std::time::{Duration, Instant};
 
 use seam_proxy::monotonic_ns;
 
+use crate::error::{BenchError, BenchResult};
 use crate::node::{AuthorityArgs, NodeLine, NodeProgress, NodeReport, ProxyModeArg};
 pub use hosts::{HostsPlan, HostsSummary, SIMULATED_AS};
 pub use report::{PodSummary, RunReport, document};
@@ -137,7 +138,7 @@ pub struct PodLaunch<'a> {
 static PART_FILES: AtomicU64 = AtomicU64::new(0);
 
 /// A line a pod wrote, tagged with its index, or why it could not be read.
-pub type PodLine = (usize, Result<NodeLine, String>);
+pub type PodLine = (usize, BenchResult<NodeLine>);
 
 /// Starts one `seam node` of `plan`, a thread that sends its JSON lines to `lines`, and one
 /// that forwards its stderr to this one's, each line tagged `[cluster]` and printed above any
@@ -147,11 +148,11 @@ pub fn spawn_pod(
     plan: &RunPlan,
     launch: &PodLaunch<'_>,
     lines: &mpsc::Sender<PodLine>,
-) -> Result<(Child, JoinHandle<()>), String> {
+) -> BenchResult<(Child, JoinHandle<()>)> {
     let (program, leading) = plan
         .node_command
         .split_first()
-        .ok_or("no command to start a pod")?;
+        .ok_or_else(|| BenchError::process("seam", "no command to start a pod"))?;
     let mut command = hosts::in_namespace(launch.namespace, program);
     command
         .args(leading)
@@ -202,23 +203,26 @@ pub fn spawn_pod(
     }
     let mut child = command
         .spawn()
-        .map_err(|e| format!("cannot start the pod of {:?}: {e}", launch.cluster))?;
+        .map_err(|e| BenchError::io("start", format!("the pod of {:?}", launch.cluster), e))?;
     let stdout = child
         .stdout
         .take()
-        .ok_or_else(|| format!("pod {:?}: no stdout", launch.cluster))?;
+        .ok_or_else(|| BenchError::process(format!("pod {:?}", launch.cluster), "no stdout"))?;
     let stderr = child
         .stderr
         .take()
-        .ok_or_else(|| format!("pod {:?}: no stderr", launch.cluster))?;
+        .ok_or_else(|| BenchError::process(format!("pod {:?}", launch.cluster), "no stderr"))?;
     let forwarder = forward_stderr(stderr, launch.cluster, Arc::clone(launch.panics));
     let (lines, index) = (lines.clone(), launch.index);
     std::thread::spawn(move || {
         for line in BufReader::new(stdout).lines() {
-            let parsed = line.map_err(|e| e.to_string()).and_then(|text| {
-                serde_json::from_str::<NodeLine>(&text)
-                    .map_err(|e| format!("unreadable line {text:?}: {e}"))
-            });
+            let parsed = line
+                .map_err(|e| BenchError::io("read", "a pod's output", e))
+                .and_then(|text| {
+                    serde_json::from_str::<NodeLine>(&text).map_err(|e| {
+                        BenchError::process("a pod", format!("unreadable line {text:?}: {e}"))
+                    })
+                });
             if lines.send((index, parsed)).is_err() {
                 break;
             }
@@ -285,7 +289,7 @@ pub fn run(
     plan: &RunPlan,
     stop: &AtomicBool,
     progress: impl FnMut(&RunProgress<'_>),
-) -> Result<RunReport, String> {
+) -> BenchResult<RunReport> {
     run_pods(plan, stop, progress).map(|(report, _)| report)
 }
 
@@ -294,10 +298,8 @@ pub fn run_pods(
     plan: &RunPlan,
     stop: &AtomicBool,
     mut progress: impl FnMut(&RunProgress<'_>),
-) -> Result<(RunReport, Vec<NodeReport>), String> {
-    let scene = crate::scene::load(&plan.scene)
-        .map_err(|e| e.to_string())?
-        .stacked(plan.layers)?;
+) -> BenchResult<(RunReport, Vec<NodeReport>)> {
+    let scene = crate::scene::load(&plan.scene)?.stacked(plan.layers)?;
     let ticks = plan.ticks.unwrap_or(scene.ticks);
     let start_at = monotonic_ns() + plan.start_delay.as_nanos() as u64;
     let launched = Instant::now();
@@ -388,7 +390,9 @@ pub fn run_pods(
     }
     let mut failed = Vec::new();
     for (name, child) in &mut pods.0 {
-        let status = child.wait().map_err(|e| format!("pod {name:?}: {e}"))?;
+        let status = child
+            .wait()
+            .map_err(|e| BenchError::io("wait for", format!("pod {name:?}"), e))?;
         failed.push(!status.success());
         if !status.success() {
             problems.push(format!(
@@ -420,12 +424,12 @@ pub fn run_pods(
     let hosts = match bridges.map(hosts::Bridges::finish).transpose() {
         Ok(hosts) => hosts,
         Err(e) => {
-            problems.push(e);
+            problems.push(e.to_string());
             None
         }
     };
     if !problems.is_empty() {
-        return Err(problems.join("\n"));
+        return Err(BenchError::Failed(problems.join("\n")));
     }
     let mut report = RunReport::new(
         &scene,

@@ -11,6 +11,7 @@ use std::ffi::OsStr;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, ToSocketAddrs};
 use std::process::{Command, Stdio};
 
+use crate::error::{BenchError, BenchResult};
 use crate::relay::{Delay, Relay};
 
 /// The namespaces of a run, removed when dropped.
@@ -26,7 +27,7 @@ struct Namespace {
 }
 
 /// Runs `ip` with `args`; its error output on failure.
-fn ip<I, S>(args: I) -> Result<(), String>
+fn ip<I, S>(args: I) -> BenchResult<()>
 where
     I: IntoIterator<Item = S>,
     S: AsRef<OsStr>,
@@ -40,14 +41,13 @@ where
         .args(&args)
         .stdin(Stdio::null())
         .output()
-        .map_err(|e| format!("cannot run `ip`: {e}"))?;
+        .map_err(|e| BenchError::io("run", "`ip`", e))?;
     if output.status.success() {
         Ok(())
     } else {
-        Err(format!(
-            "`ip {}` failed: {}",
-            shown.join(" "),
-            String::from_utf8_lossy(&output.stderr).trim()
+        Err(BenchError::process(
+            format!("`ip {}`", shown.join(" ")),
+            String::from_utf8_lossy(&output.stderr).trim(),
         ))
     }
 }
@@ -70,10 +70,10 @@ impl Subnet {
 }
 
 /// The `host:port` a Redis URL names (TCP only).
-pub(super) fn redis_addr(url: &str) -> Result<SocketAddr, String> {
+pub(super) fn redis_addr(url: &str) -> BenchResult<SocketAddr> {
     let rest = url
         .strip_prefix("redis://")
-        .ok_or("simulated hosts need a redis:// URL (TCP)")?;
+        .ok_or_else(|| BenchError::flag("--redis", "simulated hosts need a redis:// URL (TCP)"))?;
     let authority = rest.split(['/', '?']).next().unwrap_or(rest);
     let hostport = authority.rsplit('@').next().unwrap_or(authority);
     let hostport = if hostport.contains(':') {
@@ -83,11 +83,15 @@ pub(super) fn redis_addr(url: &str) -> Result<SocketAddr, String> {
     };
     hostport
         .to_socket_addrs()
-        .map_err(|e| format!("cannot resolve {hostport}: {e}"))?
+        .map_err(|e| BenchError::io("resolve", &hostport, e))?
         .find(|a| a.ip().is_loopback())
         .ok_or_else(|| {
-            format!(
-                "{hostport}: simulated hosts reach only a Redis server on this machine's loopback"
+            BenchError::flag(
+                "--redis",
+                format!(
+                    "{hostport}: simulated hosts reach only a Redis server on this machine's \
+                     loopback"
+                ),
             )
         })
 }
@@ -112,13 +116,13 @@ impl Namespaces {
         hosts: &[String],
         redis: &str,
         delayed: Option<(&str, Delay)>,
-    ) -> Result<Self, String> {
+    ) -> BenchResult<Self> {
         if !rustix::process::geteuid().is_root() {
-            return Err("not root".into());
+            return Err(BenchError::process("network namespaces", "need root"));
         }
         let upstream = redis_addr(redis)?;
         if hosts.len() > 63 {
-            return Err("at most 63 simulated hosts".into());
+            return Err(BenchError::flag("--hosts", "at most 63 simulated hosts"));
         }
         let subnet = Subnet::next();
         let mut made = Self { hosts: Vec::new() };
@@ -129,7 +133,7 @@ impl Namespaces {
             let (outer_ip, inner_ip) = (subnet.host(k, 1), subnet.host(k, 2));
             ip(["netns", "add", &name])?;
             // Registered now, so a failure below removes the namespace too.
-            let steps = || -> Result<Relay, String> {
+            let steps = || -> BenchResult<Relay> {
                 ip(["link", "add", &veth, "type", "veth", "peer", "name", &inner])?;
                 ip(["link", "set", &inner, "netns", &name])?;
                 ip(["addr", "add", &format!("{outer_ip}/30"), "dev", &veth])?;

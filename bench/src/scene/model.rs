@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::{BenchError, BenchResult};
+
 /// x, y, z.
 pub type Vec3 = [f32; 3];
 
@@ -351,18 +353,21 @@ impl Scene {
     /// The scene with `layers` copies of every grid entity stacked along y, `spacing[1]` apart:
     /// the same traffic across the same seams, `layers` times the entities. Refused for a grid
     /// entity with no y spacing (its copies would overlap).
-    pub fn stacked(mut self, layers: u32) -> Result<Scene, String> {
+    pub fn stacked(mut self, layers: u32) -> BenchResult<Scene> {
         if layers == 0 {
-            return Err("--layers must be at least 1".into());
+            return Err(BenchError::flag("--layers", "must be at least 1"));
         }
         for entity in &mut self.entities {
             if let Some(grid) = &mut entity.grid
                 && layers > 1
             {
                 if grid.spacing[1] <= 0.0 {
-                    return Err(format!(
-                        "entity {:?}: cannot stack layers: its grid has no y spacing",
-                        entity.name
+                    return Err(BenchError::flag(
+                        "--layers",
+                        format!(
+                            "entity {:?}: cannot stack layers: its grid has no y spacing",
+                            entity.name
+                        ),
                     ));
                 }
                 grid.count[1] = grid.count[1].saturating_mul(layers);
@@ -375,7 +380,7 @@ impl Scene {
     /// (then every cluster must name one, and `hosts`, if given, must match their count);
     /// otherwise `hosts` (default 1) simulated hosts named `a`, `b`, … each take a run of
     /// neighbouring clusters in the scene's order, as evenly as they divide.
-    pub fn host_layout(&self, hosts: Option<u32>) -> Result<Vec<String>, String> {
+    pub fn host_layout(&self, hosts: Option<u32>) -> BenchResult<Vec<String>> {
         let named: Vec<&str> = self
             .clusters
             .iter()
@@ -383,11 +388,14 @@ impl Scene {
             .collect();
         if !named.is_empty() {
             if named.len() != self.clusters.len() {
-                return Err(format!(
-                    "scene {:?}: {} of {} clusters name a `host`; name one for every cluster or for none",
-                    self.name,
-                    named.len(),
-                    self.clusters.len()
+                return Err(BenchError::flag(
+                    "--hosts",
+                    format!(
+                        "scene {:?}: {} of {} clusters name a `host`; name one for every cluster or for none",
+                        self.name,
+                        named.len(),
+                        self.clusters.len()
+                    ),
                 ));
             }
             if let Some(bad) = named.iter().find(|h| {
@@ -397,30 +405,39 @@ impl Scene {
                         .bytes()
                         .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_')
             }) {
-                return Err(format!(
-                    "scene {:?}: host {bad:?}: a host name is 1 to 16 of [A-Za-z0-9_-] (it names the host's shared memory)",
-                    self.name
+                return Err(BenchError::flag(
+                    "--hosts",
+                    format!(
+                        "scene {:?}: host {bad:?}: a host name is 1 to 16 of [A-Za-z0-9_-] (it names the host's shared memory)",
+                        self.name
+                    ),
                 ));
             }
             let distinct: std::collections::BTreeSet<&str> = named.iter().copied().collect();
             if let Some(n) = hosts
                 && n as usize != distinct.len()
             {
-                return Err(format!(
-                    "--hosts {n}: scene {:?} lays its clusters out on {} hosts itself",
-                    self.name,
-                    distinct.len()
+                return Err(BenchError::flag(
+                    "--hosts",
+                    format!(
+                        "{n}: scene {:?} lays its clusters out on {} hosts itself",
+                        self.name,
+                        distinct.len()
+                    ),
                 ));
             }
             return Ok(named.iter().map(|h| (*h).to_owned()).collect());
         }
         let n = hosts.unwrap_or(1) as usize;
         if n == 0 || n > self.clusters.len() {
-            return Err(format!(
-                "--hosts {n}: scene {:?} has {} clusters; give 1 to {} hosts",
-                self.name,
-                self.clusters.len(),
-                self.clusters.len()
+            return Err(BenchError::flag(
+                "--hosts",
+                format!(
+                    "{n}: scene {:?} has {} clusters; give 1 to {} hosts",
+                    self.name,
+                    self.clusters.len(),
+                    self.clusters.len()
+                ),
             ));
         }
         let count = self.clusters.len();

@@ -128,7 +128,7 @@ grid = { count = [3, 1, 3], spacing = [1, 0, 1] }
     let err = flat
         .stacked(2)
         .expect_err("no y spacing: the layers would overlap");
-    assert!(err.contains("y spacing"), "{err}");
+    assert!(err.to_string().contains("y spacing"), "{err}");
 }
 
 #[test]
@@ -179,7 +179,7 @@ region = {{ min = [9, 0, 0], max = [18, 9, 9] }}
     let half = two("")
         .host_layout(None)
         .expect_err("one cluster without a host");
-    assert!(half.contains("1 of 2 clusters"), "{half}");
+    assert!(half.to_string().contains("1 of 2 clusters"), "{half}");
     assert!(
         two("host = \"a/b\"").host_layout(None).is_err(),
         "unusable name"

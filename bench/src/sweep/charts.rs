@@ -10,6 +10,7 @@ use plotters::prelude::*;
 use seam_proxy::ProxyMode;
 
 use crate::accuracy::{TrialResult, mode_name};
+use crate::error::{BenchError, BenchResult};
 
 /// Where a TrueType font for chart text is looked for (`SEAM_FONT` first).
 const FONT_PATHS: &[&str] = &[
@@ -20,9 +21,10 @@ const FONT_PATHS: &[&str] = &[
 ];
 
 /// Registers a font for chart text once; plotters needs one to measure and draw labels.
-pub fn chart_font() -> Result<(), String> {
-    static FONT: OnceLock<Result<(), String>> = OnceLock::new();
-    FONT.get_or_init(|| {
+pub fn chart_font() -> BenchResult<()> {
+    // What is wrong with the fonts, if anything, found once.
+    static FONT: OnceLock<Option<String>> = OnceLock::new();
+    let problem = FONT.get_or_init(|| {
         let from_env = std::env::var("SEAM_FONT").ok();
         let candidates = from_env
             .iter()
@@ -32,16 +34,23 @@ pub fn chart_font() -> Result<(), String> {
             if let Ok(bytes) = std::fs::read(path) {
                 let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
                 return plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
-                    .map_err(|_| format!("{path} is not a usable TrueType font"));
+                    .err()
+                    .map(|_| format!("{path} is not a usable TrueType font"));
             }
         }
-        Err(format!(
+        Some(format!(
             "no font for chart text: install fonts-dejavu-core or set SEAM_FONT to a .ttf file \
              (looked in {})",
             FONT_PATHS.join(", ")
         ))
-    })
-    .clone()
+    });
+    match problem {
+        None => Ok(()),
+        Some(problem) => Err(BenchError::Chart {
+            chart: "text".to_owned(),
+            problem: problem.clone(),
+        }),
+    }
 }
 
 /// One chart, drawable on any backend.
@@ -58,7 +67,7 @@ enum Chart<'a> {
 }
 
 impl Chart<'_> {
-    fn draw<DB: DrawingBackend>(&self, area: DrawingArea<DB, Shift>) -> Result<(), String> {
+    fn draw<DB: DrawingBackend>(&self, area: DrawingArea<DB, Shift>) -> BenchResult<()> {
         match self {
             Chart::AccuracyVsCost { scene, rows } => accuracy_vs_cost(area, scene, rows),
             Chart::HitRecall { scene, mode, rows } => hit_recall_vs_speed(area, scene, *mode, rows),
@@ -66,7 +75,7 @@ impl Chart<'_> {
     }
 
     /// Writes `out/name.svg` and `out/name.png`.
-    fn write(&self, out: &Path, name: &str) -> Result<[PathBuf; 2], String> {
+    fn write(&self, out: &Path, name: &str) -> BenchResult<[PathBuf; 2]> {
         let svg = out.join(format!("{name}.svg"));
         self.draw(SVGBackend::new(&svg, SIZE).into_drawing_area())?;
         let png = out.join(format!("{name}.png"));
@@ -82,7 +91,7 @@ const CHAOTIC: &[&str] = &["crossfire"];
 /// Draws every chart into `out`, each as `.svg` and `.png`: `accuracy_vs_cost_SCENE` for
 /// every scene, `hit_recall_vs_speed_SCENE_MODE` for every scene whose single world has hits.
 /// Returns the files written.
-pub fn draw_all(results: &[TrialResult], out: &Path) -> Result<Vec<PathBuf>, String> {
+pub fn draw_all(results: &[TrialResult], out: &Path) -> BenchResult<Vec<PathBuf>> {
     chart_font()?;
     let mut written = Vec::new();
     // The charts compare settings in lock-step, where runs are deterministic; free-running
@@ -128,15 +137,18 @@ pub fn draw_all(results: &[TrialResult], out: &Path) -> Result<Vec<PathBuf>, Str
 
 const SIZE: (u32, u32) = (1200, 560);
 
-fn failed<E: std::fmt::Display>(e: E) -> String {
-    format!("cannot draw a chart: {e}")
+fn failed<E: std::fmt::Display>(e: E) -> BenchError {
+    BenchError::Chart {
+        chart: "being drawn".to_owned(),
+        problem: e.to_string(),
+    }
 }
 
 /// The legend both charts draw, at `position`.
 fn draw_legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
     chart: &mut ChartContext<'a, DB, CT>,
     position: SeriesLabelPosition,
-) -> Result<(), String> {
+) -> BenchResult<()> {
     chart
         .configure_series_labels()
         .position(position)
@@ -176,7 +188,7 @@ fn accuracy_vs_cost<DB: DrawingBackend>(
     area: DrawingArea<DB, Shift>,
     scene: &str,
     rows: &[&TrialResult],
-) -> Result<(), String> {
+) -> BenchResult<()> {
     area.fill(&WHITE).map_err(failed)?;
     let title = if CHAOTIC.contains(&scene) {
         format!("{scene} (chaotic: metres of error whatever the setting): accuracy against cost")
@@ -224,7 +236,7 @@ impl Panel {
         rows: &[&TrialResult],
         y_label: &str,
         error: fn(&TrialResult) -> f64,
-    ) -> Result<(), String> {
+    ) -> BenchResult<()> {
         let points: Vec<(f64, f64, ProxyMode)> = rows
             .iter()
             .map(|r| ((self.cost)(r), error(r).max(1e-6), r.settings.proxy_mode))
@@ -307,7 +319,7 @@ fn hit_recall_vs_speed<DB: DrawingBackend>(
     scene: &str,
     mode: ProxyMode,
     rows: &[&TrialResult],
-) -> Result<(), String> {
+) -> BenchResult<()> {
     let spread = if rows.iter().any(|r| r.settings.spread.is_none()) {
         None
     } else {

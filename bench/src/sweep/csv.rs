@@ -4,6 +4,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::accuracy::{TrialResult, mode_name};
+use crate::error::{BenchError, BenchResult};
 
 /// The header, in column order.
 pub(super) const COLUMNS: &[&str] = &[
@@ -121,12 +122,12 @@ pub(super) fn row(r: &TrialResult) -> String {
 }
 
 /// Writes the header and one row per result.
-pub(super) fn write(results: &[TrialResult], path: &Path) -> Result<(), String> {
+pub(super) fn write(results: &[TrialResult], path: &Path) -> BenchResult<()> {
     let mut text = COLUMNS.join(",");
     text.push('\n');
     for r in results {
         text += &row(r);
         text.push('\n');
     }
-    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    std::fs::write(path, text).map_err(|e| BenchError::io("write", path.display(), e))
 }

@@ -20,6 +20,7 @@ use seam_proxy::ProxyMode;
 use crate::accuracy::{
     FreeRunning, TrialResult, TrialSettings, mode_name, run_free_trial, run_trial,
 };
+use crate::error::{BenchError, BenchResult, Context};
 use crate::scene::Scene;
 pub use charts::{chart_font, draw_all};
 
@@ -184,7 +185,7 @@ pub fn run(
     ticks: Option<u64>,
     free: &FreeRunning,
     mut progress: impl FnMut(usize, usize, &str),
-) -> Result<Vec<TrialResult>, String> {
+) -> BenchResult<Vec<TrialResult>> {
     let free_settings = grid.free_settings(ticks);
     let total = scenes
         .iter()
@@ -210,21 +211,22 @@ pub fn run(
     };
     for (path, scene) in scenes {
         for trial in &grid.settings(scene, ticks) {
-            let result = run_trial(scene, trial, None)
-                .map_err(|e| format!("{}: {}: {e}", scene.name, describe(trial)))?;
+            let result = run_trial(scene, trial, None).context(format!(
+                "{}: {}",
+                scene.name,
+                describe(trial)
+            ))?;
             report(&mut results, result);
         }
         for (trial, transport) in &free_settings {
             let run_id = format!("sweep{}x{}", std::process::id(), results.len());
             let result =
-                run_free_trial(path, scene, trial, transport, free, &run_id).map_err(|e| {
-                    format!(
-                        "{} on {}: {}: {e}",
-                        scene.name,
-                        seam_transport::redact_url(transport),
-                        describe(trial)
-                    )
-                })?;
+                run_free_trial(path, scene, trial, transport, free, &run_id).context(format!(
+                    "{} on {}: {}",
+                    scene.name,
+                    seam_transport::redact_url(transport),
+                    describe(trial)
+                ))?;
             report(&mut results, result);
         }
     }
@@ -232,8 +234,8 @@ pub fn run(
 }
 
 /// Writes `sweep.csv` and the charts into `out`; returns the files written.
-pub fn write(results: &[TrialResult], out: &Path) -> Result<Vec<PathBuf>, String> {
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+pub fn write(results: &[TrialResult], out: &Path) -> BenchResult<Vec<PathBuf>> {
+    std::fs::create_dir_all(out).map_err(|e| BenchError::io("create", out.display(), e))?;
     let csv_path = out.join("sweep.csv");
     csv::write(results, &csv_path)?;
     let mut written = vec![csv_path];

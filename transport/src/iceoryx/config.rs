@@ -2,6 +2,8 @@
 
 use std::time::Duration;
 
+use crate::url::SettingError;
+
 /// Quality of service and limits of the shared-memory (`shm`) and in-process (`local`) backends.
 ///
 /// iceoryx2 fixes a service's limits when the first port creates it; a later pod that asks for
@@ -46,7 +48,7 @@ impl Default for IceoryxConfig {
 
 impl IceoryxConfig {
     /// Applies one `key=value` pair from a transport URL.
-    pub(crate) fn set(&mut self, key: &str, value: &str) -> Result<(), String> {
+    pub(crate) fn set(&mut self, key: &str, value: &str) -> Result<(), SettingError> {
         if let Some(frame_key) = crate::auth::FrameKey::from_setting(key, value) {
             self.key = Some(frame_key?);
             return Ok(());
@@ -56,7 +58,10 @@ impl IceoryxConfig {
                 .parse::<usize>()
                 .ok()
                 .filter(|n| *n > 0)
-                .ok_or_else(|| format!("`{key}` must be a positive whole number, got {value:?}"))
+                .ok_or_else(|| SettingError::NotPositive {
+                    key: key.to_owned(),
+                    value: value.to_owned(),
+                })
         };
         match key {
             "prefix" => {
@@ -66,9 +71,9 @@ impl IceoryxConfig {
                         .bytes()
                         .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-' || b == b'.');
                 if !valid {
-                    return Err(format!(
-                        "`prefix` must be 1 to 64 of [A-Za-z0-9_.-], got {value:?}"
-                    ));
+                    return Err(SettingError::Prefix {
+                        value: value.to_owned(),
+                    });
                 }
                 self.prefix = value.to_owned();
             }
@@ -79,10 +84,11 @@ impl IceoryxConfig {
             "buffer" => self.buffer = number()?,
             "discovery_ms" => self.discovery_interval = Duration::from_millis(number()? as u64),
             _ => {
-                return Err(format!(
-                    "unknown setting `{key}` (known: prefix, max_payload, initial_payload, \
-                     max_publishers, max_subscribers, buffer, discovery_ms)"
-                ));
+                return Err(SettingError::Unknown {
+                    key: key.to_owned(),
+                    known: "prefix, max_payload, initial_payload, max_publishers, \
+                            max_subscribers, buffer, discovery_ms",
+                });
             }
         }
         Ok(())

@@ -65,7 +65,7 @@ impl Endpoint {
                     .ok_or_else(|| invalid(format!("`{key}` must be a positive whole number")))
             };
             if let Some(frame_key) = crate::auth::FrameKey::from_setting(key, value) {
-                config.key = Some(frame_key.map_err(invalid)?);
+                config.key = Some(frame_key.map_err(|e| invalid(e.to_string()))?);
                 continue;
             }
             match key {

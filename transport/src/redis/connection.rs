@@ -1,9 +1,10 @@
 //! The connection to the server: commands and their answers, authentication, and riding out
 //! an outage (back-off, reconnect, subscriptions renewed).
 
+use std::io;
 use std::time::{Duration, Instant};
 
-use crate::error::SubscribeError;
+use crate::error::{OpenError, SubscribeError};
 use crate::validate_channel;
 
 use super::RedisTransport;
@@ -21,6 +22,33 @@ pub(super) struct Outage {
     pub(super) backoff: Duration,
 }
 
+/// Why a command on the subscriber's socket got no answer it could use. Its text becomes the
+/// `reason` of the public error (with any password scrubbed).
+#[derive(Debug, thiserror::Error)]
+pub(super) enum CommandError {
+    /// The server answered with an error reply (its text).
+    #[error("{0}")]
+    Refused(String),
+    /// The socket failed.
+    #[error("{0}")]
+    Socket(#[from] io::Error),
+    /// The server's bytes are not RESP.
+    #[error("protocol error: {0}")]
+    Protocol(&'static str),
+    /// No answer in time.
+    #[error("no answer within {0:?}")]
+    NoAnswer(Duration),
+    /// Connecting again failed.
+    #[error("{0}")]
+    Reconnect(#[from] OpenError),
+}
+
+impl CommandError {
+    fn refused(text: &[u8]) -> Self {
+        CommandError::Refused(String::from_utf8_lossy(text).into_owned())
+    }
+}
+
 /// Whether a redis-rs error means the connection is gone (not a refusal by the server).
 pub(super) fn connection_lost(e: &redis::RedisError) -> bool {
     e.is_io_error() || e.is_connection_dropped() || e.is_connection_refusal() || e.is_timeout()
@@ -29,7 +57,7 @@ pub(super) fn connection_lost(e: &redis::RedisError) -> bool {
 impl RedisTransport {
     /// Authenticates the subscriber's socket, if the URL has a password (redis-rs has done the
     /// publishing connection).
-    pub(super) fn authenticate(&mut self) -> Result<(), String> {
+    pub(super) fn authenticate(&mut self) -> Result<(), CommandError> {
         let Some(password) = self.endpoint.password.clone() else {
             return Ok(());
         };
@@ -39,11 +67,10 @@ impl RedisTransport {
         }
         auth.arg(&password);
         self.command(&auth.get_packed_command(), |reply| match reply {
-            Reply::ServerError(text) => Some(Err(String::from_utf8_lossy(text).into())),
+            Reply::ServerError(text) => Some(Err(CommandError::refused(text))),
             Reply::Other => Some(Ok(())),
             _ => None,
         })
-        .map_err(|reason| self.endpoint.scrub(reason))
     }
 
     /// Notes that the server is unreachable (once per outage) and forgets what was half read.
@@ -98,7 +125,7 @@ impl RedisTransport {
                         server = %self.endpoint.addr,
                         retry_in_ms = outage.backoff.as_millis() as u64,
                         "reconnect failed: {}",
-                        self.endpoint.scrub(reason)
+                        self.endpoint.scrub(reason.to_string())
                     );
                 }
                 false
@@ -107,11 +134,10 @@ impl RedisTransport {
     }
 
     /// Connects again, authenticates and renews every subscription.
-    pub(super) fn reconnect(&mut self) -> Result<(), String> {
+    pub(super) fn reconnect(&mut self) -> Result<(), CommandError> {
         let (publisher, socket) = self
             .endpoint
-            .connect(self.config.connect_timeout, self.config.timeout)
-            .map_err(|e| e.to_string())?;
+            .connect(self.config.connect_timeout, self.config.timeout)?;
         self.publisher = publisher;
         self.socket = socket;
         self.current = None;
@@ -125,7 +151,7 @@ impl RedisTransport {
     }
 
     /// Sends a (un)subscription and waits for the server to confirm it.
-    pub(super) fn confirm(&mut self, command: &str, name: &str) -> Result<(), String> {
+    pub(super) fn confirm(&mut self, command: &str, name: &str) -> Result<(), CommandError> {
         let packed = redis::cmd(command).arg(name).get_packed_command();
         let expected = command.to_ascii_lowercase();
         self.command(&packed, |reply| match reply {
@@ -134,7 +160,7 @@ impl RedisTransport {
             {
                 Some(Ok(()))
             }
-            Reply::ServerError(text) => Some(Err(String::from_utf8_lossy(text).into_owned())),
+            Reply::ServerError(text) => Some(Err(CommandError::refused(text))),
             _ => None,
         })
     }
@@ -144,10 +170,10 @@ impl RedisTransport {
     pub(super) fn command(
         &mut self,
         packed: &[u8],
-        mut answer: impl FnMut(&Reply<'_>) -> Option<Result<(), String>>,
-    ) -> Result<(), String> {
+        mut answer: impl FnMut(&Reply<'_>) -> Option<Result<(), CommandError>>,
+    ) -> Result<(), CommandError> {
         self.current = None;
-        self.socket.send(packed).map_err(|e| e.to_string())?;
+        self.socket.send(packed)?;
         let deadline = Instant::now() + self.config.timeout;
         let (max_bulk, frame_limit) = (self.max_bulk(), self.frame_limit());
         loop {
@@ -192,7 +218,7 @@ impl RedisTransport {
                     self.intake.malformed();
                     self.discard = skip;
                 }
-                Err(RespError::Protocol(what)) => return Err(format!("protocol error: {what}")),
+                Err(RespError::Protocol(what)) => return Err(CommandError::Protocol(what)),
             }
         }
     }
@@ -201,15 +227,13 @@ impl RedisTransport {
         &mut self,
         deadline: Instant,
         frame_limit: usize,
-    ) -> Result<(), String> {
+    ) -> Result<(), CommandError> {
         let now = Instant::now();
         if now >= deadline {
-            return Err(format!("no answer within {:?}", self.config.timeout));
+            return Err(CommandError::NoAnswer(self.config.timeout));
         }
-        self.socket
-            .fill(Some(deadline - now), frame_limit)
-            .map(|_| ())
-            .map_err(|e| e.to_string())
+        self.socket.fill(Some(deadline - now), frame_limit)?;
+        Ok(())
     }
 
     pub(super) fn skip_discarded(&mut self) {
@@ -254,7 +278,7 @@ impl RedisTransport {
             }
             Err(reason) => Err(SubscribeError::Disconnected {
                 addr: self.addr.clone(),
-                reason,
+                reason: self.endpoint.scrub(reason.to_string()),
             }),
         }
     }

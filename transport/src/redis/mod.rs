@@ -97,7 +97,7 @@ impl RedisTransport {
             .authenticate()
             .map_err(|reason| OpenError::AuthenticationFailed {
                 addr: transport.addr.clone(),
-                reason,
+                reason: transport.endpoint.scrub(reason.to_string()),
             })?;
         Ok(transport)
     }

@@ -1,0 +1,202 @@
+//! `seam run`: a scene as co-hosted cluster pods, one process per cluster, with progress, an
+//! optional recording and live inspector, and the merged report.
+
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use seam_bench::console::Progress;
+use seam_bench::error::{BenchError, BenchResult};
+use seam_bench::inspect::{LiveRecording, Served, Server};
+use seam_bench::node::{self, ModelArgs};
+use seam_bench::record::PartsDir;
+use seam_bench::relay::Delay;
+use seam_bench::run::{self, HostsPlan, RunPlan, RunReport};
+
+use super::{expand_transport, node_command};
+use crate::cli::Output;
+
+/// `seam run`'s flags.
+#[derive(clap::Args)]
+pub(crate) struct RunArgs {
+    /// The scene file (TOML), e.g. bench/scenes/crossfire.toml.
+    scene: PathBuf,
+    /// Transport URL for every pod: `shm`, or `redis://host:port` (`redis` alone means
+    /// redis://127.0.0.1:6379).
+    #[arg(long, default_value = "shm")]
+    transport: String,
+    /// Ticks per second; 0 ticks as fast as each pod can.
+    #[arg(long, default_value_t = 60.0)]
+    rate: f64,
+    /// Ticks to run (default: the scene's `ticks`).
+    #[arg(long)]
+    ticks: Option<u64>,
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Stack this many copies of every grid entity along y, `spacing[1]` apart: the same
+    /// traffic with more entities (`grid` holds 2 500 balls per layer).
+    #[arg(long, default_value_t = 1)]
+    layers: u32,
+    #[command(flatten)]
+    hosts: HostsArgs,
+    /// Tick every pod at the same moment (default: pod i of n ticks i/n of a period later,
+    /// so co-hosted pods do not all want a core at once).
+    #[arg(long)]
+    in_phase: bool,
+    #[command(flatten)]
+    record: RecordArgs,
+    #[command(flatten)]
+    output: Output,
+}
+
+/// Where `seam run` puts its pods: one host, or several simulated ones.
+#[derive(Debug, clap::Args)]
+struct HostsArgs {
+    /// Run the pods on this many simulated hosts (for a scene whose clusters name no `host`;
+    /// a scene that names them runs on its own hosts without this flag). Pods of one host share
+    /// memory (the host's own iceoryx2 prefix); one `seam bridge` per host carries what crosses
+    /// hosts over Redis (`--redis`). As root each host is a network namespace made by the run
+    /// (and removed after) that reaches Redis only over its veth pair; otherwise the run says
+    /// so and uses prefixes alone. Needs `--transport shm`.
+    #[arg(long)]
+    hosts: Option<u32>,
+    /// The Redis server between hosts (on this machine's loopback for simulated hosts).
+    #[arg(long, default_value = "redis://127.0.0.1:6379")]
+    redis: String,
+    /// Simulated latency: delay everything between one host's bridge and Redis by this many ms
+    /// each way (a relay in front of Redis; this kernel has no netem).
+    #[arg(long, default_value_t = 0.0)]
+    delay_ms: f64,
+    /// Plus up to this many ms more per chunk, uniformly at random (order kept).
+    #[arg(long, default_value_t = 0.0)]
+    jitter_ms: f64,
+    /// The host whose traffic is delayed (default: the last).
+    #[arg(long)]
+    delayed_host: Option<String>,
+    /// Simulate hosts by iceoryx2 prefix alone, even as root (no network namespaces).
+    #[arg(long)]
+    no_namespaces: bool,
+}
+
+/// Recording a run, and looking at it while it runs.
+#[derive(clap::Args, Clone)]
+struct RecordArgs {
+    /// Record the run into FILE: each pod writes its own stream (what it owned and where,
+    /// its proxies, the routed ops it applied, contacts reported to it, its tick time), merged
+    /// at the end. Look at it with `seam inspect FILE`.
+    #[arg(long, value_name = "FILE")]
+    record: Option<PathBuf>,
+    /// Serve the inspector on loopback while the pods run, updated four times a second from
+    /// what they record; it stops with the run (keep the whole run with --record FILE and
+    /// `seam inspect FILE --serve`).
+    #[arg(long)]
+    inspect: bool,
+    /// Where --inspect listens (port 0: any free port, printed).
+    #[arg(long, default_value = "127.0.0.1:0", value_name = "ADDR")]
+    inspect_addr: String,
+}
+
+impl RunArgs {
+    fn plan(&self) -> RunPlan {
+        let (model, hosts) = (&self.model, &self.hosts);
+        RunPlan {
+            rate: self.rate,
+            ticks: self.ticks,
+            proxy_mode: model.proxy_mode,
+            authority: model.authority,
+            replication_interval: model.replication_interval,
+            coupling: !model.no_coupling,
+            quantize: model.quantize,
+            keyframe_ticks: model.keyframe_ticks,
+            layers: self.layers,
+            in_phase: self.in_phase,
+            hosts: HostsPlan {
+                count: hosts.hosts,
+                redis: expand_transport(&hosts.redis),
+                delay: Delay {
+                    base: Duration::from_secs_f64(hosts.delay_ms.max(0.0) / 1e3),
+                    jitter: Duration::from_secs_f64(hosts.jitter_ms.max(0.0) / 1e3),
+                },
+                delayed_host: hosts.delayed_host.clone(),
+                namespaces: !hosts.no_namespaces,
+            },
+            ..RunPlan::new(self.scene.clone(), expand_transport(&self.transport))
+        }
+    }
+}
+
+/// Runs the pods, prints the report, and fails if an entity was lost or owned twice.
+pub(crate) fn main(args: &RunArgs) -> BenchResult<()> {
+    let report = run_scene(args.plan(), &args.record)?;
+    args.output.report(&report, run::document);
+    if report.ownership.holds() {
+        Ok(())
+    } else {
+        Err(BenchError::Failed(format!(
+            "seam run: {} entities lost and {} owned twice at the end (see the report)",
+            report.ownership.lost.len(),
+            report.ownership.duplicated.len()
+        )))
+    }
+}
+
+/// This executable starts the pods; the recording, if asked for, is kept even when the run
+/// fails.
+fn run_scene(mut plan: RunPlan, record: &RecordArgs) -> BenchResult<RunReport> {
+    plan.node_command = node_command()?;
+    let stop = node::stop_flag()?;
+    eprintln!(
+        "seam run: {} on {}, one pod per cluster",
+        plan.scene.display(),
+        seam_transport::redact_url(&plan.transport)
+    );
+    let parts = if record.record.is_some() || record.inspect {
+        Some(PartsDir::beside(record.record.as_deref())?)
+    } else {
+        None
+    };
+    plan.record_dir = parts.as_ref().map(|p| p.dir.clone());
+    let live = match (&parts, record.inspect) {
+        (Some(parts), true) => {
+            let live = LiveRecording::watch(&parts.dir);
+            let server = Server::start(&record.inspect_addr, Served::Live(live.clone()))?;
+            eprintln!("seam run: inspector at {}", server.url());
+            Some((live, server))
+        }
+        _ => None,
+    };
+    let report = run_pods_shown(&plan, &stop);
+    if let (Some((live, _server)), Some(parts)) = (&live, &parts) {
+        live.finish(&parts.dir);
+        if let Some(problem) = live.problem() {
+            eprintln!("seam run: inspector: {problem}");
+        }
+    }
+    if let (Some(parts), Some(out)) = (&parts, &record.record) {
+        // Even a failed run's recording is worth keeping: it shows what went wrong.
+        match parts.merge_into(out, &[], "seam run") {
+            Ok(summary) => eprintln!("seam run: {}", summary.line(out)),
+            Err(e) => eprintln!("seam run: cannot write {}: {e}", out.display()),
+        }
+    }
+    report
+}
+
+/// The pods, with progress on the console.
+fn run_pods_shown(plan: &RunPlan, stop: &AtomicBool) -> BenchResult<RunReport> {
+    let shown = Progress::new(None);
+    run::run(plan, stop, |progress| {
+        let pods: Vec<String> = progress
+            .pods
+            .iter()
+            .flatten()
+            .map(|p| p.to_string())
+            .collect();
+        let pods = if pods.is_empty() {
+            "starting".to_owned()
+        } else {
+            pods.join(" · ")
+        };
+        shown.status(&format!("[{:5.1} s] {pods}", progress.elapsed_s));
+    })
+}
