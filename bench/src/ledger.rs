@@ -78,6 +78,9 @@ pub struct NameCounts {
     pub sent: u64,
     /// Ended once: applied once, or dropped or given up once.
     pub ended_once: u64,
+    /// Those ended once, by their end (`applied`, `stale`, `gone`, `invalid`, `overflow`,
+    /// `given-up`: the words of `seam_proxy::LedgerEvent`).
+    pub ended_by: BTreeMap<String, u64>,
     /// Applied by two owners, or twice by one: the failure delivery exists to prevent.
     pub applied_twice: u64,
     /// Of those ended once: applied also to an adopter's copy of a body whose owner was only
@@ -107,6 +110,16 @@ impl NameCounts {
     /// Names that ended twice, by any two ends.
     pub fn ended_twice_total(&self) -> u64 {
         self.ended_twice.values().sum()
+    }
+
+    /// Names ended once by `event`.
+    pub fn ended_as(&self, event: LedgerEvent) -> u64 {
+        self.ended_by.get(event.word()).copied().unwrap_or(0)
+    }
+
+    /// Names with two ends: applied twice, or two ends of other kinds.
+    pub fn ended_twice_all(&self) -> u64 {
+        self.applied_twice + self.ended_twice_total()
     }
 
     /// Whether every name was delivered as promised: none lost, none applied twice.
@@ -233,6 +246,10 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
         match ends.len() {
             1 => {
                 counts.ended_once += 1;
+                *counts
+                    .ended_by
+                    .entry(ends[0].event.word().into())
+                    .or_default() += 1;
                 counts.applied_to_dropped_copy += u64::from(dropped_copies > 0);
                 continue;
             }
@@ -424,6 +441,8 @@ mod tests {
         // applied twice; 13 applied by east and dropped as stale by the adopter.
         assert_eq!(ops.sent, 10);
         assert_eq!(ops.ended_once, 2);
+        assert_eq!(ops.ended_by, BTreeMap::from([("applied".to_owned(), 2)]));
+        assert_eq!(ops.ended_as(Applied), 2);
         assert_eq!(ops.applied_to_dropped_copy, 1);
         assert_eq!(ops.applied_twice, 2);
         assert_eq!(
@@ -439,6 +458,16 @@ mod tests {
         assert_eq!(ops.with_killed_sender, 1);
         assert_eq!(ops.ended_unsent, 1);
         assert_eq!(ops.examples.len(), 3, "{:?}", ops.examples);
+        // The counts add up: every name sent is in exactly one.
+        assert_eq!(
+            ops.sent,
+            ops.ended_once
+                + ops.ended_twice_all()
+                + ops.answered_end_unlogged
+                + ops.unanswered_at_end
+                + ops.with_killed_sender
+                + ops.lost
+        );
         assert!(!ops.holds());
         // Contact 7 surfaced once; 8 lost.
         assert_eq!(followed.contacts.sent, 2);

@@ -15,10 +15,11 @@
 //!   receiver applied it, dropped it for good, or took it on to forward);
 //! - one end: [`LedgerEvent::Applied`] (an op applied by its target's owner, a report surfaced
 //!   to its game code or merged with its own copy), [`LedgerEvent::Stale`] (dropped by a
-//!   receiver as older than `max_op_age_ticks`), [`LedgerEvent::Dropped`] (by a receiver or the
-//!   sender for another reason: invalid, beyond the bound, out of the window, entity gone, no
-//!   room in the queue) or [`LedgerEvent::GivenUp`] (by its sender: unanswered past answering,
-//!   or for a report, nobody left to tell or the pair its own now);
+//!   receiver as older than `max_op_age_ticks`), dropped for another reason by a receiver or
+//!   the sender ([`LedgerEvent::Gone`]: its entity exists nowhere known;
+//!   [`LedgerEvent::Invalid`]: invalid or beyond the bound; [`LedgerEvent::Overflow`]: out of
+//!   the window, or no room in the queue) or [`LedgerEvent::GivenUp`] (by its sender:
+//!   unanswered past answering, or for a report, nobody left to tell or the pair its own now);
 //! - [`LedgerEvent::Unanswered`]: still in a sender's hands when it stopped
 //!   (`crate::Cluster::unanswered_names`, written by the harness at the end).
 //!
@@ -52,9 +53,12 @@ pub enum LedgerEvent {
     Applied,
     /// Dropped here as older than `max_op_age_ticks`.
     Stale,
-    /// Dropped here for another reason: invalid, beyond the bound, out of the window, entity
-    /// gone, no room in a queue.
-    Dropped,
+    /// Dropped here: its entity exists nowhere this cluster or its receiver knows of.
+    Gone,
+    /// Dropped here: invalid values, or values beyond the bound.
+    Invalid,
+    /// Dropped here: numbered out of the window, or no room in the queue for its owner.
+    Overflow,
     /// Given up by this cluster, its sender.
     GivenUp,
     /// Still unanswered here when this cluster stopped.
@@ -63,12 +67,14 @@ pub enum LedgerEvent {
 
 impl LedgerEvent {
     /// Every event, in the order of their codes.
-    pub const ALL: [LedgerEvent; 7] = [
+    pub const ALL: [LedgerEvent; 9] = [
         LedgerEvent::Sent,
         LedgerEvent::Answered,
         LedgerEvent::Applied,
         LedgerEvent::Stale,
-        LedgerEvent::Dropped,
+        LedgerEvent::Gone,
+        LedgerEvent::Invalid,
+        LedgerEvent::Overflow,
         LedgerEvent::GivenUp,
         LedgerEvent::Unanswered,
     ];
@@ -77,7 +83,12 @@ impl LedgerEvent {
     pub fn ends(self) -> bool {
         matches!(
             self,
-            LedgerEvent::Applied | LedgerEvent::Stale | LedgerEvent::Dropped | LedgerEvent::GivenUp
+            LedgerEvent::Applied
+                | LedgerEvent::Stale
+                | LedgerEvent::Gone
+                | LedgerEvent::Invalid
+                | LedgerEvent::Overflow
+                | LedgerEvent::GivenUp
         )
     }
 
@@ -88,7 +99,9 @@ impl LedgerEvent {
             LedgerEvent::Answered => "answered",
             LedgerEvent::Applied => "applied",
             LedgerEvent::Stale => "stale",
-            LedgerEvent::Dropped => "dropped",
+            LedgerEvent::Gone => "gone",
+            LedgerEvent::Invalid => "invalid",
+            LedgerEvent::Overflow => "overflow",
             LedgerEvent::GivenUp => "given-up",
             LedgerEvent::Unanswered => "unanswered",
         }
@@ -133,7 +146,9 @@ impl LedgerEntry {
                 let event = match reason {
                     OpDrop::Stale => LedgerEvent::Stale,
                     OpDrop::Expired => LedgerEvent::GivenUp,
-                    _ => LedgerEvent::Dropped,
+                    OpDrop::Gone => LedgerEvent::Gone,
+                    OpDrop::Invalid | OpDrop::Absurd => LedgerEvent::Invalid,
+                    OpDrop::Window | OpDrop::QueueFull => LedgerEvent::Overflow,
                 };
                 (name, Carried::Op, event, adopted_from)
             }

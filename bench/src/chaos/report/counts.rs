@@ -3,6 +3,8 @@
 use serde::Serialize;
 
 use crate::chaos::Fault;
+use crate::ledger::NameCounts;
+use seam_proxy::LedgerEvent;
 
 /// Faults injected and survived, by kind.
 #[derive(Debug, Clone, Copy, Default, Serialize)]
@@ -204,16 +206,22 @@ pub struct FrameCounts {
     pub states_rejected: u64,
 }
 
-/// Routed ops (or contact reports), by what became of them (see `seam_proxy::ClusterStats`).
+/// Routed ops (or contact reports), by what became of them: each followed by name across
+/// every pod life's ledger ([`crate::ledger::follow`]), so a killed life's last ticks count
+/// too and the counts add up — every name routed is in exactly one of `applied` to
+/// `unanswered_killed`, or lost. Resends, repeats and forwards are the pods' counters (see
+/// `seam_proxy::ClusterStats`).
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct OpCounts {
     /// Made by game code (or the settling of seam contacts) and sent to an owner, each once
-    /// however often it was sent.
+    /// however often it was sent or forwarded.
     pub routed: u64,
-    /// Applied by an owner.
+    /// Routed as the pods' counters sum them (a killed life's up to its last progress line):
+    /// the ledgers must name at least these.
+    pub counted_routed: u64,
+    /// Applied by an owner (a report: surfaced, or merged with the receiver's own copy).
     pub applied: u64,
-    /// Dropped as too old: by a receiver (older than `max_op_age_ticks`) or by their sender
-    /// (unanswered that long).
+    /// Dropped by a receiver as older than `max_op_age_ticks`.
     pub dropped_stale: u64,
     /// Dropped: their entity existed nowhere the sender or the receiver knew of.
     pub dropped_gone: u64,
@@ -221,42 +229,68 @@ pub struct OpCounts {
     pub dropped_invalid: u64,
     /// Dropped: out of the settled window, or the sender's queue for the owner full.
     pub dropped_overflow: u64,
+    /// Given up by their sender: unanswered past answering; a report also with nobody left
+    /// to tell, or the pair its sender's own since.
+    pub given_up: u64,
+    /// Ended twice: applied twice, or applied and also dropped or given up.
+    pub ended_twice: u64,
+    /// Answered done to every sender, but no end logged (a receiver killed between
+    /// answering and writing its ledger).
+    pub end_unlogged: u64,
+    /// Unanswered when their sender stopped at the end of the run (sent in its last ticks).
+    pub unanswered_at_end: u64,
+    /// Unanswered when their sender was killed: they went with it, applied or not.
+    pub unanswered_killed: u64,
     /// Sends after the first.
     pub resent: u64,
     /// Received again after being settled: answered, not applied again.
     pub repeated: u64,
     /// Forwarded after a hand-off.
     pub forwarded: u64,
-    /// Unanswered when their sender stopped at the end of the run (sent in its last ticks).
-    pub unanswered_at_end: u64,
-    /// Unanswered when their sender was killed (at its last progress line): they went with
-    /// it, applied or not.
-    pub unanswered_killed: u64,
 }
 
 impl OpCounts {
-    /// Everything an op can end as, summed: applied or dropped by a reason.
+    /// The counts of `names` followed by name; resends, repeats, forwards and what the
+    /// counters routed from the pods' counters.
+    pub fn by_name(names: &NameCounts, counted_routed: u64) -> Self {
+        use LedgerEvent::*;
+        Self {
+            routed: names.sent,
+            counted_routed,
+            applied: names.ended_as(Applied),
+            dropped_stale: names.ended_as(Stale),
+            dropped_gone: names.ended_as(Gone),
+            dropped_invalid: names.ended_as(Invalid),
+            dropped_overflow: names.ended_as(Overflow),
+            given_up: names.ended_as(GivenUp),
+            ended_twice: names.ended_twice_all(),
+            end_unlogged: names.answered_end_unlogged,
+            unanswered_at_end: names.unanswered_at_end,
+            unanswered_killed: names.with_killed_sender,
+            ..Self::default()
+        }
+    }
+
+    /// Everything an op can end as once, summed: applied, dropped by a reason, or given up.
     pub fn ended(&self) -> u64 {
         self.applied
             + self.dropped_stale
             + self.dropped_gone
             + self.dropped_invalid
             + self.dropped_overflow
+            + self.given_up
     }
 
-    /// Routed and neither applied, nor dropped by a reason, nor still unanswered when its
-    /// sender stopped or was killed: lost. (An op applied by an owner that was killed before
-    /// its answer went out, then let expire by its sender, counts twice and can hide one.)
+    /// Routed and neither ended (once or twice), nor answered with its end unlogged, nor
+    /// still unanswered when its sender stopped or was killed: lost.
     pub fn lost(&self) -> u64 {
-        self.routed
-            .saturating_sub(self.ended() + self.unanswered_at_end + self.unanswered_killed)
-    }
-
-    /// Outcomes beyond the ops routed: an op applied twice, or counted at its owner and also
-    /// unanswered at a sender that stopped or was killed, or applied and also let expire by a
-    /// sender whose answer was lost with a killed owner.
-    pub fn surplus(&self) -> u64 {
-        self.ended().saturating_sub(self.routed)
+        self.routed.saturating_sub(
+            self.ended()
+                + self.ended_twice
+                + self.end_unlogged
+                + self.unanswered_at_end
+                + self.unanswered_killed,
+        )
     }
 }
 

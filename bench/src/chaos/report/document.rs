@@ -30,8 +30,12 @@ pub fn document(r: &ChaosReport) -> Document {
     doc.line(injected_lines(r));
     doc.line(counted_lines(r));
     for (what, n, counted) in [
-        ("ops", &r.by_name.ops, r.ops.routed),
-        ("contact reports", &r.by_name.contacts, r.contacts.routed),
+        ("ops", &r.by_name.ops, r.ops.counted_routed),
+        (
+            "contact reports",
+            &r.by_name.contacts,
+            r.contacts.counted_routed,
+        ),
     ] {
         doc.line(by_name_line(what, n, counted));
     }
@@ -125,7 +129,7 @@ fn injected_lines(r: &ChaosReport) -> String {
     out
 }
 
-/// Entities, frames, ops and contact reports as the counters sum them.
+/// Entities and frames as the counters sum them; ops and contact reports followed by name.
 fn counted_lines(r: &ChaosReport) -> String {
     let o = &r.ownership;
     let (fr, op, c) = (&r.frames, &r.ops, &r.contacts);
@@ -133,12 +137,14 @@ fn counted_lines(r: &ChaosReport) -> String {
         "entities: {} expected, {} owned once, {} lost, {} owned twice{}\n\
          frames: {} taken; refused: {} undecodable, {} other version, {} wrong sender, {} \
          replayed, {} implausible tick; {} lost to full buffers; {} states rejected\n\
-         ops: {} routed, {} applied; dropped: {} too old, {} entity gone, {} invalid, {} \
-         overflow; {} unanswered at the end, {} with a killed sender; {} lost{}, {} ended \
-         beyond routed; {} resent, {} repeats not applied, {} forwarded\n\
-         contact reports: {} sent, {} surfaced or merged; {} too old, {} given up or the pair \
-         the sender's own since; {} unanswered at the end, {} with a killed sender; {} lost{}, \
-         {} ended beyond sent; {} resent, {} repeats not surfaced",
+         ops (by name, every life's ledger): {} routed, {} applied; dropped: {} too old, {} \
+         entity gone, {} invalid, {} overflow; {} given up; {} ended twice, {} answered with \
+         the end unlogged; {} unanswered at the end, {} with a killed sender; {} lost{}; \
+         counted: {} resent, {} repeats not applied, {} forwarded\n\
+         contact reports (by name): {} sent, {} surfaced or merged; {} too old, {} given up or \
+         the pair the sender's own since; {} ended twice, {} answered with the end unlogged; \
+         {} unanswered at the end, {} with a killed sender; {} lost{}; counted: {} resent, {} \
+         repeats not surfaced",
         o.expected,
         o.owned_once,
         o.lost.len(),
@@ -162,23 +168,26 @@ fn counted_lines(r: &ChaosReport) -> String {
         op.dropped_gone,
         op.dropped_invalid,
         op.dropped_overflow,
+        op.given_up,
+        op.ended_twice,
+        op.end_unlogged,
         op.unanswered_at_end,
         op.unanswered_killed,
         op.lost(),
         mark(op.lost() == 0),
-        op.surplus(),
         op.resent,
         op.repeated,
         op.forwarded,
         c.routed,
         c.applied,
         c.dropped_stale,
-        c.dropped_gone,
+        c.given_up,
+        c.ended_twice,
+        c.end_unlogged,
         c.unanswered_at_end,
         c.unanswered_killed,
         c.lost(),
         mark(c.lost() == 0),
-        c.surplus(),
         c.resent,
         c.repeated
     )
@@ -375,7 +384,7 @@ fn counted_row(r: &ChaosReport) -> Table {
         ("states rejected", Right),
         ("ops routed / applied / too old / lost", Left),
         ("resent / repeats", Left),
-        ("unanswered at end + at kills / ended beyond routed", Left),
+        ("unanswered at end + at kills / ended twice", Left),
         ("contact reports sent / surfaced / too old / lost", Left),
         (
             "by name, ops; reports: ended twice / applied twice / lost",
@@ -406,7 +415,7 @@ fn counted_row(r: &ChaosReport) -> Table {
             "{} + {} / {}",
             grouped(op.unanswered_at_end),
             grouped(op.unanswered_killed),
-            grouped(op.surplus())
+            grouped(op.ended_twice)
         ),
         format!(
             "{} / {} / {} / {}",

@@ -54,8 +54,8 @@ pub struct ChaosReport {
     /// Routed ops.
     pub ops: OpCounts,
     /// Contact reports: `routed` counts those sent, `applied` those surfaced (or merged with
-    /// the receiver's own copy), `dropped_stale` those a receiver found too old,
-    /// `dropped_gone` those their sender gave up on or forgot because the pair became its own.
+    /// the receiver's own copy), `dropped_stale` those a receiver found too old, `given_up`
+    /// those their sender gave up on or forgot because the pair became its own.
     pub contacts: OpCounts,
     /// Deaths, adoptions, outages.
     pub recovery: RecoveryCounts,
@@ -170,38 +170,15 @@ impl ChaosReport {
                 ),
         );
         let ops = OpCounts {
-            routed: s.ops_routed,
-            applied: s.ops_applied,
-            dropped_stale: s.ops_dropped_stale + s.ops_expired,
-            dropped_gone: s.ops_dropped_gone,
-            dropped_invalid: s.ops_dropped_invalid + s.ops_dropped_absurd,
-            dropped_overflow: s.ops_dropped_window + s.ops_dropped_queue_full,
             resent: s.ops_resent,
             repeated: s.ops_repeated,
             forwarded: s.ops_forwarded,
-            unanswered_at_end: inputs.reports.iter().map(|r| r.ops_unanswered).sum(),
-            unanswered_killed: inputs
-                .dead_incarnations
-                .iter()
-                .map(|p| p.ops_unanswered)
-                .sum(),
+            ..OpCounts::by_name(&inputs.by_name.ops, s.ops_routed)
         };
         let contacts = OpCounts {
-            routed: s.contacts_sent,
-            applied: s
-                .contacts_received
-                .saturating_sub(s.contacts_repeated + s.contacts_dropped_stale),
-            dropped_stale: s.contacts_dropped_stale,
-            dropped_gone: s.contacts_given_up + s.contacts_own_now,
             resent: s.contacts_resent,
             repeated: s.contacts_repeated,
-            unanswered_at_end: inputs.reports.iter().map(|r| r.contacts_unanswered).sum(),
-            unanswered_killed: inputs
-                .dead_incarnations
-                .iter()
-                .map(|p| p.contacts_unanswered)
-                .sum(),
-            ..OpCounts::default()
+            ..OpCounts::by_name(&inputs.by_name.contacts, s.contacts_sent)
         };
         recovery.neighbours_lost = s.neighbours_lost;
         recovery.neighbours_rejoined = s.neighbours_rejoined;
@@ -268,8 +245,8 @@ impl ChaosReport {
     /// killed pod's ledger covers its last counters): without this, ledgers never written
     /// would follow nothing and find nothing wrong.
     pub fn ledgers_complete(&self) -> bool {
-        self.by_name.ops.sent >= self.ops.routed
-            && self.by_name.contacts.sent >= self.contacts.routed
+        self.by_name.ops.sent >= self.ops.counted_routed
+            && self.by_name.contacts.sent >= self.contacts.counted_routed
     }
 
     /// Whether memory held: every pod judged stayed within its bound, and a run long enough
