@@ -4,12 +4,16 @@ settings, recorded once and checked against later, every figure but timings.
 
     tools/unchanged.py record DIR   # before a change: writes DIR/<scene>__<setting>.json
     tools/unchanged.py check DIR    # after it: the same runs, compared figure by figure
+    tools/unchanged.py pair OLD NEW # both binaries, each run back to back (no DIR)
 
 Timings (keys ending in `_us`) are left out. `events_bytes_per_tick` is compared to within
 0.5 %: events frames carry host timestamps (published, issued) and op numbers started from
 the wall clock, postcard varints whose length follows the clock. Every other figure must be
 identical: lock-step trials are deterministic (rapier's enhanced-determinism, frames counted
-per tick, ids from one fixed run name), so any other difference is a change of behaviour. `SEAM_BIN` names the `seam` binary (default:
+per tick, ids from one fixed run name), so any other difference is a change of behaviour. The clock moves those lengths over an hour (a
+`check` against a record made an hour earlier can differ by 3 % in that figure alone, the old
+binary as much as the new); `pair` runs the binary before the change and the one after on
+each run back to back, so both see the same clock. `SEAM_BIN` names the `seam` binary (default:
 target/release/seam, built with `cargo build --release -p seam-bench --bin seam`).
 """
 import glob
@@ -69,7 +73,30 @@ def differences(a, b, path=""):
         yield f"{path}: {a!r} before, {b!r} after"
 
 
+def pair(old, new):
+    """Each run with `old` and then `new`, compared."""
+    for binary in (old, new):
+        if not os.access(binary, os.X_OK):
+            print(f"no seam binary at {binary}", file=sys.stderr)
+            return 2
+    runs = [(s, n, a) for s in scenes() for n, a in SETTINGS.items()]
+    changed = 0
+    for i, (scene, name, args) in enumerate(runs, 1):
+        stem = os.path.splitext(os.path.basename(scene))[0]
+        print(f"[{i}/{len(runs)}] {stem} {name}", file=sys.stderr, flush=True)
+        diff = list(differences(run(old, scene, args), run(new, scene, args)))
+        if diff:
+            changed += 1
+            print(f"{stem} {name}: {len(diff)} figures differ")
+            for line in diff[:20]:
+                print(f"  {line}")
+    print(f"{len(runs) - changed} of {len(runs)} runs identical in every figure but timings")
+    return 1 if changed else 0
+
+
 def main():
+    if len(sys.argv) == 4 and sys.argv[1] == "pair":
+        return pair(sys.argv[2], sys.argv[3])
     if len(sys.argv) != 3 or sys.argv[1] not in ("record", "check"):
         print(__doc__.strip(), file=sys.stderr)
         return 2

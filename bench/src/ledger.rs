@@ -145,10 +145,36 @@ const EXAMPLES: usize = 5;
 /// Reads the ledgers of `lives` and follows every name to its end. A missing file (a life
 /// killed before it wrote a line) is no names.
 pub fn follow(lives: &[Life]) -> io::Result<Followed> {
-    type Name = (Carried, u128, u64);
-    let mut names: HashMap<Name, Vec<(usize, LedgerEntry)>> = HashMap::new();
     let mut followed = Followed::default();
-    // Whose ledger each life's is (from its first line).
+    let (names, cluster_of) = read(lives, &mut followed.unreadable_lines)?;
+    for ((carried, issuer, seq), events) in names {
+        let counts = match carried {
+            Carried::Op => &mut followed.ops,
+            Carried::Contact => &mut followed.contacts,
+        };
+        let name = NameEvents {
+            issuer,
+            seq,
+            events: &events,
+            lives,
+            cluster_of: &cluster_of,
+        };
+        name.count_into(counts);
+    }
+    Ok(followed)
+}
+
+/// A name: its issuer and number.
+type Name = (Carried, u128, u64);
+
+/// Each name's events, with the life that logged each.
+type NamesEvents = HashMap<Name, Vec<(usize, LedgerEntry)>>;
+
+/// Every life's ledger read: each name's events with the life that logged them, and whose
+/// ledger each life's is (from its first line). Lines that are not entries are counted in
+/// `unreadable`.
+fn read(lives: &[Life], unreadable: &mut u64) -> io::Result<(NamesEvents, Vec<Option<ClusterId>>)> {
+    let mut names = NamesEvents::new();
     let mut cluster_of: Vec<Option<ClusterId>> = vec![None; lives.len()];
     for (index, life) in lives.iter().enumerate() {
         let text = match std::fs::read_to_string(&life.path) {
@@ -168,38 +194,30 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
                     .entry((e.carried, e.issuer.as_u128(), e.seq))
                     .or_default()
                     .push((index, e)),
-                None => followed.unreadable_lines += 1,
+                None => *unreadable += 1,
             }
         }
     }
-    for ((carried, issuer, seq), events) in names {
-        let counts = match carried {
-            Carried::Op => &mut followed.ops,
-            Carried::Contact => &mut followed.contacts,
-        };
-        // An application to an adopter's copy of a body whose owner also applied it in a life
-        // still ticking after the adopter's application: the owner was only stalled, applied
-        // it on waking, was heard again and kept its copy, and the adopter's copy stopped (see
-        // `seam_proxy::LedgerEntry::adopted_from`). An owner killed first was taken for dead
-        // for want of frames, so it stopped ticking before the adopter took its bodies: the
-        // adopter's copy lives on, and two applications are two.
-        let owner_applied_and_ticked_on = |from: ClusterId, adopter_tick: u64| {
-            events.iter().any(|&(life, e)| {
-                e.event == LedgerEvent::Applied
-                    && e.adopted_from.is_none()
-                    && cluster_of[life] == Some(from)
-                    && lives[life].ticking_at(adopter_tick)
-            })
-        };
-        let to_dropped_copy = |&(_, e): &(usize, LedgerEntry)| {
-            e.event == LedgerEvent::Applied
-                && e.adopted_from
-                    .is_some_and(|from| owner_applied_and_ticked_on(from, e.tick))
-        };
-        let dropped_copies = events.iter().filter(|e| to_dropped_copy(e)).count();
+    Ok((names, cluster_of))
+}
+
+/// One name's events across the run's lives, to be counted.
+struct NameEvents<'a> {
+    issuer: u128,
+    seq: u64,
+    events: &'a [(usize, LedgerEntry)],
+    lives: &'a [Life],
+    cluster_of: &'a [Option<ClusterId>],
+}
+
+impl NameEvents<'_> {
+    /// Counts the name where its events put it.
+    fn count_into(&self, counts: &mut NameCounts) {
+        let events = self.events;
+        let dropped_copies = events.iter().filter(|e| self.to_dropped_copy(e)).count();
         let ends: Vec<&LedgerEntry> = events
             .iter()
-            .filter(|e| !to_dropped_copy(e))
+            .filter(|e| !self.to_dropped_copy(e))
             .map(|(_, e)| e)
             .filter(|e| e.event.ends())
             .collect();
@@ -210,40 +228,22 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
             .collect();
         if senders.is_empty() {
             counts.ended_unsent += u64::from(!ends.is_empty());
-            continue;
+            return;
         }
         counts.sent += 1;
         let applied = ends
             .iter()
             .filter(|e| e.event == LedgerEvent::Applied)
             .count();
-        let example = || {
-            let events: Vec<String> = events
-                .iter()
-                .map(|&(life, e)| {
-                    let copy = if e.adopted_from.is_some() {
-                        " to an adopted copy"
-                    } else {
-                        ""
-                    };
-                    format!(
-                        "{}{copy} at tick {} by {}",
-                        e.event.word(),
-                        e.tick,
-                        lives[life].path.display()
-                    )
-                })
-                .collect();
-            format!("{issuer:032x}#{seq}: {}", events.join(", "))
-        };
         if applied >= 2 {
             counts.applied_twice += 1;
             if counts.examples.len() < EXAMPLES {
-                counts.examples.push(example());
+                counts.examples.push(self.example());
             }
-            continue;
+            return;
         }
         match ends.len() {
+            0 => self.count_unended(&senders, counts),
             1 => {
                 counts.ended_once += 1;
                 *counts
@@ -251,9 +251,7 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
                     .entry(ends[0].event.word().into())
                     .or_default() += 1;
                 counts.applied_to_dropped_copy += u64::from(dropped_copies > 0);
-                continue;
             }
-            0 => {}
             _ => {
                 let mut words: Vec<String> = ends
                     .iter()
@@ -264,11 +262,34 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
                     .collect();
                 words.sort_unstable();
                 *counts.ended_twice.entry(words.join(" + ")).or_default() += 1;
-                continue;
             }
         }
+    }
+
+    /// Whether `entry` is an application to an adopter's copy of a body whose owner also
+    /// applied it in a life still ticking after the adopter's application: the owner was
+    /// only stalled, applied it on waking, was heard again and kept its copy, and the
+    /// adopter's copy stopped (see `seam_proxy::LedgerEntry::adopted_from`). An owner killed
+    /// first was taken for dead for want of frames, so it stopped ticking before the adopter
+    /// took its bodies: the adopter's copy lives on, and two applications are two.
+    fn to_dropped_copy(&self, &(_, e): &(usize, LedgerEntry)) -> bool {
+        let owner_applied_and_ticked_on = |from: ClusterId, adopter_tick: u64| {
+            self.events.iter().any(|&(life, e)| {
+                e.event == LedgerEvent::Applied
+                    && e.adopted_from.is_none()
+                    && self.cluster_of[life] == Some(from)
+                    && self.lives[life].ticking_at(adopter_tick)
+            })
+        };
+        e.event == LedgerEvent::Applied
+            && e.adopted_from
+                .is_some_and(|from| owner_applied_and_ticked_on(from, e.tick))
+    }
+
+    /// Counts a name sent by `senders` with no end: where it was when the run ended.
+    fn count_unended(&self, senders: &[usize], counts: &mut NameCounts) {
         let has = |life: usize, event: LedgerEvent| {
-            events.iter().any(|&(l, e)| l == life && e.event == event)
+            (self.events.iter()).any(|&(l, e)| l == life && e.event == event)
         };
         let holding: Vec<usize> = senders
             .iter()
@@ -277,13 +298,14 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
             .collect();
         // Each life still holding it must account for it: killed with it, or stopped with it
         // unanswered. A life that ran to the end and says neither dropped it unsaid.
-        let accounted = |&life: &usize| lives[life].killed() || has(life, LedgerEvent::Unanswered);
+        let accounted =
+            |&life: &usize| self.lives[life].killed() || has(life, LedgerEvent::Unanswered);
         if holding.is_empty() {
             counts.answered_end_unlogged += 1;
         } else if !holding.iter().all(accounted) {
             counts.lost += 1;
             if counts.examples.len() < EXAMPLES {
-                counts.examples.push(example());
+                counts.examples.push(self.example());
             }
         } else if holding
             .iter()
@@ -294,7 +316,26 @@ pub fn follow(lives: &[Life]) -> io::Result<Followed> {
             counts.with_killed_sender += 1;
         }
     }
-    Ok(followed)
+
+    /// The name and its events, to start tracing from.
+    fn example(&self) -> String {
+        let events: Vec<String> = (self.events.iter())
+            .map(|&(life, e)| {
+                let copy = if e.adopted_from.is_some() {
+                    " to an adopted copy"
+                } else {
+                    ""
+                };
+                format!(
+                    "{}{copy} at tick {} by {}",
+                    e.event.word(),
+                    e.tick,
+                    self.lives[life].path.display()
+                )
+            })
+            .collect();
+        format!("{:032x}#{}: {}", self.issuer, self.seq, events.join(", "))
+    }
 }
 
 #[cfg(test)]

@@ -4,9 +4,9 @@
 //!
 //! # Layout
 //!
-//! - `src/bin/seam/` — the `seam` CLI: `cli.rs` (the commands and their flags, clap),
-//!   `commands.rs` (what each does beyond its module: progress, printing, exit status),
-//!   `main.rs` (dispatch).
+//! - `src/bin/seam/` — the `seam` CLI: `cli.rs` (the commands, clap), `cmd/` (one module per
+//!   command: its flags and what it does beyond its library module — progress, printing,
+//!   exit status; `cmd/mod.rs` the helpers they share), `main.rs` (dispatch).
 //! - [`run`] — `seam run`: starts one pod per cluster of a scene, shows progress, merges their
 //!   reports; with `--hosts N`, on simulated hosts (network namespaces as root) with a bridge
 //!   each.
@@ -14,7 +14,8 @@
 //! - [`relay`] — a TCP relay with a configurable delay (simulated hosts reach Redis through it).
 //! - [`network`] — `seam network`: accuracy against a simulated delay between two hosts.
 //! - [`chaos`] — `seam chaos`: the pods under faults on a schedule (kills, stops, Redis
-//!   restarts, garbage and forged frames) and what survived.
+//!   restarts, garbage and forged frames) and what survived; a runner over the pods and the
+//!   schedule, ops and reports totalled by name from every life's ledger.
 //! - [`node`] — `seam node`: one pod, ticking on a schedule and sleeping on its transport.
 //! - [`accuracy`] — `seam compare`: a split run against its single-world reference, tick by
 //!   tick, accuracy and cost of one setting; and the same for free-running pods.
@@ -36,7 +37,8 @@
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.
 //! - [`ledger`] — pods' ledgers of every routed op and contact report by name, and following
 //!   each name across a run's pods to its end (`seam chaos`).
-//! - [`error`] — [`error::BenchError`], the one error type of the crate.
+//! - [`error`] — [`error::BenchError`], the one error type of the crate (and
+//!   [`error::PingError`]); no `Result<_, String>` anywhere.
 //! - [`document`] — reports as data ([`document::Document`]), rendered as text or Markdown.
 //! - `benches/` — criterion: `bench_transport` (publish → receive per backend), `bench_sim`
 //!   (a tick against raw Rapier, the wire), `bench_proxy` (tick cost with 0 / 1 000 / 10 000

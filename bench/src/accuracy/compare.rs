@@ -285,33 +285,7 @@ impl Comparison {
                     traced_seen = true;
                     self.print_traced(tick, Some((pod.name(), &state)), truth);
                 }
-                if let Some((was, before, truth_before)) = self.last.get(&state.id)
-                    && *was != owner
-                {
-                    // An authority flip: how far the new owner's motion over the tick departs
-                    // from the reference's.
-                    self.acc.handoffs += 1;
-                    if distance(before.position, truth_before.position) > TRACKED_M {
-                        self.acc.handoffs_untracked += 1;
-                    }
-                }
-                if let Some((was, before, truth_before)) = self.last.get(&state.id)
-                    && *was != owner
-                    && distance(before.position, truth_before.position) <= TRACKED_M
-                {
-                    let moved = sub(state.position, before.position);
-                    let moved_truth = sub(truth.position, truth_before.position);
-                    let sped = sub(state.linvel, before.linvel);
-                    let sped_truth = sub(truth.linvel, truth_before.linvel);
-                    self.acc.handoff_jump_position_m = self
-                        .acc
-                        .handoff_jump_position_m
-                        .max(distance(moved, moved_truth));
-                    self.acc.handoff_jump_velocity_mps = self
-                        .acc
-                        .handoff_jump_velocity_mps
-                        .max(distance(sped, sped_truth));
-                }
+                self.note_handoff(owner, &state, truth);
                 self.last.insert(state.id, (owner, state, *truth));
                 // Projectiles count for hand-offs, not for position error: once one hits in one
                 // run and not in the other, it flies hundreds of metres apart, and the hit
@@ -319,19 +293,7 @@ impl Comparison {
                 if projectiles.contains(&state.id) {
                     continue;
                 }
-                if self.bounds.escaped(state.position) && !self.bounds.escaped(truth.position) {
-                    self.escaped.insert(state.id);
-                }
-                let error = distance(state.position, truth.position);
-                let turn = angle_deg(state.rotation, truth.rotation);
-                self.pos_sq += error * error;
-                self.rot_sq += turn * turn;
-                self.samples += 1;
-                if error > self.acc.position_max_m {
-                    self.acc.position_max_m = error;
-                    self.worst = Some((state.id, tick));
-                }
-                self.acc.rotation_max_deg = self.acc.rotation_max_deg.max(turn);
+                self.note_error(tick, &state, truth);
             }
         }
         let mut speed_sum = 0.0;
@@ -370,6 +332,60 @@ impl Comparison {
                 }
             }
         }
+        self.note_momentum(p_split, p_ref, speed_sum);
+
+        record_hits(reference, &projectiles, tick, &mut self.reference_hits);
+        for pod in pods {
+            record_hits(pod, &projectiles, tick, &mut self.split_hits);
+        }
+    }
+
+    /// An authority flip of `state` to `owner` since the last tick: counted, and how far the
+    /// new owner's motion over the tick departs from the reference's.
+    fn note_handoff(&mut self, owner: ClusterId, state: &EntityState, truth: &EntityState) {
+        let Some((was, before, truth_before)) = self.last.get(&state.id) else {
+            return;
+        };
+        if *was == owner {
+            return;
+        }
+        self.acc.handoffs += 1;
+        if distance(before.position, truth_before.position) > TRACKED_M {
+            self.acc.handoffs_untracked += 1;
+            return;
+        }
+        let moved = sub(state.position, before.position);
+        let moved_truth = sub(truth.position, truth_before.position);
+        let sped = sub(state.linvel, before.linvel);
+        let sped_truth = sub(truth.linvel, truth_before.linvel);
+        let acc = &mut self.acc;
+        acc.handoff_jump_position_m = acc
+            .handoff_jump_position_m
+            .max(distance(moved, moved_truth));
+        acc.handoff_jump_velocity_mps =
+            (acc.handoff_jump_velocity_mps).max(distance(sped, sped_truth));
+    }
+
+    /// One body's error against the reference this tick.
+    fn note_error(&mut self, tick: u64, state: &EntityState, truth: &EntityState) {
+        if self.bounds.escaped(state.position) && !self.bounds.escaped(truth.position) {
+            self.escaped.insert(state.id);
+        }
+        let error = distance(state.position, truth.position);
+        let turn = angle_deg(state.rotation, truth.rotation);
+        self.pos_sq += error * error;
+        self.rot_sq += turn * turn;
+        self.samples += 1;
+        if error > self.acc.position_max_m {
+            self.acc.position_max_m = error;
+            self.worst = Some((state.id, tick));
+        }
+        self.acc.rotation_max_deg = self.acc.rotation_max_deg.max(turn);
+    }
+
+    /// The tick's momentum, split (`p_split`) against the reference (`p_ref`, its summed
+    /// mass-weighted speed `speed_sum`).
+    fn note_momentum(&mut self, p_split: [f64; 3], p_ref: [f64; 3], speed_sum: f64) {
         let error = (0..3)
             .map(|k| (p_split[k] - p_ref[k]).powi(2))
             .sum::<f64>()
@@ -382,11 +398,6 @@ impl Comparison {
             .map(|k| (p_ref[k] - start[k]).powi(2))
             .sum::<f64>()
             .sqrt();
-
-        record_hits(reference, &projectiles, tick, &mut self.reference_hits);
-        for pod in pods {
-            record_hits(pod, &projectiles, tick, &mut self.split_hits);
-        }
     }
 
     /// The accuracy over everything observed; `name` names an entity of the scene.

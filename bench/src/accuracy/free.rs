@@ -6,6 +6,7 @@
 //! every dynamic body ended. Cost comes from the run's report: tick times, bytes, proxies, and
 //! routed-op latency stage by stage, which is what the transport changes.
 
+use std::collections::BTreeMap;
 use std::ffi::OsString;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
@@ -15,7 +16,7 @@ use seam_sim::wire::{EntityId, IdMap};
 
 use super::{Accuracy, Cost, TrialResult, TrialSettings};
 use crate::error::{BenchResult, Context};
-use crate::node::ProxyModeArg;
+use crate::node::{NodeReport, ProxyModeArg};
 use crate::pod::{Part, Pod, PodSettings};
 use crate::run::{self, RunPlan};
 use crate::scene::Scene;
@@ -48,22 +49,20 @@ pub fn run_free_trial(
         .map(|(result, _)| result)
 }
 
-/// As [`run_free_trial`], also returning how the hosts were simulated when `free.hosts` puts
-/// the pods on several.
-pub fn run_free_trial_on_hosts(
+/// The `seam run` plan of a free-running trial of `ticks` ticks.
+fn free_run_plan(
     scene_path: &Path,
-    scene: &Scene,
     settings: &TrialSettings,
     transport: &str,
     free: &FreeRunning,
     run_id: &str,
-) -> BenchResult<(TrialResult, Option<String>)> {
+    ticks: u64,
+) -> RunPlan {
     let proxy_mode = match settings.proxy_mode {
         seam_proxy::ProxyMode::Fixed => ProxyModeArg::Fixed,
         _ => ProxyModeArg::Kinematic,
     };
-    let ticks = settings.ticks.unwrap_or(scene.ticks);
-    let plan = RunPlan {
+    RunPlan {
         rate: free.rate,
         ticks: Some(ticks),
         proxy_mode,
@@ -79,7 +78,84 @@ pub fn run_free_trial_on_hosts(
         hosts: free.hosts.clone(),
         track_flips: true,
         ..RunPlan::new(scene_path, transport)
+    }
+}
+
+/// Each pod's final positions against the reference's (`truth`): errors, and bodies owned
+/// twice or by nobody.
+fn judge_final_positions(
+    nodes: &[NodeReport],
+    truth: &IdMap<EntityId, [f32; 3]>,
+    accuracy: &mut Accuracy,
+) {
+    let (mut squares, mut samples) = (0.0f64, 0u64);
+    let mut owners: IdMap<EntityId, u32> = IdMap::default();
+    for node in nodes {
+        for (id, position) in &node.final_positions {
+            *owners.entry(*id).or_default() += 1;
+            if let Some(t) = truth.get(id) {
+                let error = (0..3)
+                    .map(|k| f64::from(position[k] - t[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                squares += error * error;
+                samples += 1;
+                accuracy.position_max_m = accuracy.position_max_m.max(error);
+            }
+        }
+    }
+    accuracy.position_rms_m = (squares / samples.max(1) as f64).sqrt();
+    accuracy.duplicate_owner_ticks = owners.values().filter(|&&n| n > 1).count() as u64;
+    accuracy.missing_entity_ticks =
+        truth.keys().filter(|id| !owners.contains_key(*id)).count() as u64;
+}
+
+/// The pods' projectile hits against the reference's: recall, precision, tick offsets.
+fn judge_hits(
+    nodes: &[NodeReport],
+    reference_hits: &BTreeMap<(EntityId, EntityId), u64>,
+    accuracy: &mut Accuracy,
+) {
+    let mut split_hits: IdMap<(EntityId, EntityId), u64> = IdMap::default();
+    for node in nodes {
+        for &(pair, tick) in &node.projectile_hits {
+            let first = split_hits.entry(pair).or_insert(tick);
+            *first = (*first).min(tick);
+        }
+    }
+    let (mut matched, mut offsets) = (0u64, 0u64);
+    for (pair, tick) in reference_hits {
+        if let Some(split_tick) = split_hits.get(pair) {
+            matched += 1;
+            offsets += tick.abs_diff(*split_tick);
+        }
+    }
+    accuracy.hits_reference = reference_hits.len() as u64;
+    accuracy.hits_split = split_hits.len() as u64;
+    accuracy.hits_matched = matched;
+    accuracy.hit_recall =
+        (accuracy.hits_reference > 0).then(|| matched as f64 / accuracy.hits_reference as f64);
+    accuracy.hit_precision =
+        (accuracy.hits_split > 0).then(|| matched as f64 / accuracy.hits_split as f64);
+    accuracy.hit_tick_offset_mean = if matched > 0 {
+        offsets as f64 / matched as f64
+    } else {
+        0.0
     };
+}
+
+/// As [`run_free_trial`], also returning how the hosts were simulated when `free.hosts` puts
+/// the pods on several.
+pub fn run_free_trial_on_hosts(
+    scene_path: &Path,
+    scene: &Scene,
+    settings: &TrialSettings,
+    transport: &str,
+    free: &FreeRunning,
+    run_id: &str,
+) -> BenchResult<(TrialResult, Option<String>)> {
+    let ticks = settings.ticks.unwrap_or(scene.ticks);
+    let plan = free_run_plan(scene_path, settings, transport, free, run_id, ticks);
     let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})?;
 
     let mut reference = Pod::new(
@@ -117,54 +193,9 @@ pub fn run_free_trial_on_hosts(
 
     let mut accuracy = Accuracy::default();
     let truth: IdMap<EntityId, [f32; 3]> = reference.simulated_positions().into_iter().collect();
-    let (mut squares, mut samples) = (0.0f64, 0u64);
-    let mut owners: IdMap<EntityId, u32> = IdMap::default();
-    for node in &nodes {
-        for (id, position) in &node.final_positions {
-            *owners.entry(*id).or_default() += 1;
-            if let Some(t) = truth.get(id) {
-                let error = (0..3)
-                    .map(|k| f64::from(position[k] - t[k]).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                squares += error * error;
-                samples += 1;
-                accuracy.position_max_m = accuracy.position_max_m.max(error);
-            }
-        }
-    }
-    accuracy.position_rms_m = (squares / samples.max(1) as f64).sqrt();
-    accuracy.duplicate_owner_ticks = owners.values().filter(|&&n| n > 1).count() as u64;
-    accuracy.missing_entity_ticks =
-        truth.keys().filter(|id| !owners.contains_key(*id)).count() as u64;
+    judge_final_positions(&nodes, &truth, &mut accuracy);
 
-    let mut split_hits: IdMap<(EntityId, EntityId), u64> = IdMap::default();
-    for node in &nodes {
-        for &(pair, tick) in &node.projectile_hits {
-            let first = split_hits.entry(pair).or_insert(tick);
-            *first = (*first).min(tick);
-        }
-    }
-    let reference_hits = reference.projectile_hits();
-    let (mut matched, mut offsets) = (0u64, 0u64);
-    for (pair, tick) in reference_hits {
-        if let Some(split_tick) = split_hits.get(pair) {
-            matched += 1;
-            offsets += tick.abs_diff(*split_tick);
-        }
-    }
-    accuracy.hits_reference = reference_hits.len() as u64;
-    accuracy.hits_split = split_hits.len() as u64;
-    accuracy.hits_matched = matched;
-    accuracy.hit_recall =
-        (accuracy.hits_reference > 0).then(|| matched as f64 / accuracy.hits_reference as f64);
-    accuracy.hit_precision =
-        (accuracy.hits_split > 0).then(|| matched as f64 / accuracy.hits_split as f64);
-    accuracy.hit_tick_offset_mean = if matched > 0 {
-        offsets as f64 / matched as f64
-    } else {
-        0.0
-    };
+    judge_hits(&nodes, reference.projectile_hits(), &mut accuracy);
     judge_flips(&nodes, &truth_at, &mut accuracy);
 
     let ran = report

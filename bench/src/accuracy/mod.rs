@@ -206,16 +206,9 @@ const TRIAL_RUN: &str = "seam-trial";
 /// Trials begun in this process, so each gets a transport prefix of its own.
 static TRIALS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
-/// As [`run_trial`], also recording every cluster's ticks and the single world's into
-/// `record` (see [`crate::record`]).
-pub fn run_recorded_trial(
-    scene: &Scene,
-    settings: &TrialSettings,
-    trace: Option<&str>,
-    record: Option<&std::path::Path>,
-) -> BenchResult<TrialResult> {
-    let scene = settings.apply(scene.clone());
-    let pod_settings = |transport: String| PodSettings {
+/// The settings of a lock-step trial's pods on `transport`.
+fn trial_pod_settings(settings: &TrialSettings, transport: String) -> PodSettings {
+    PodSettings {
         proxy_mode: settings.proxy_mode,
         authority: settings.authority.mode(),
         replication_interval: settings.replication_interval,
@@ -227,7 +220,37 @@ pub fn run_recorded_trial(
         },
         keyframe_ticks: settings.keyframe_ticks,
         ..PodSettings::new(transport, TRIAL_RUN)
-    };
+    }
+}
+
+/// A recorder of a lock-step trial of `scene` (the single world's stream included) into
+/// `path`.
+fn trial_recorder(scene: &Scene, path: &std::path::Path) -> BenchResult<PodRecorder> {
+    let table = EntityTable::new(scene, TRIAL_RUN, scene.ticks, 0.0, "seam compare", true);
+    Ok(PodRecorder::create(path, table)?)
+}
+
+/// The pods' op stages and counters, summed.
+fn merged(pods: &[Pod]) -> (OpStages, seam_proxy::ClusterStats) {
+    let mut ops = OpStages::default();
+    let mut stats = seam_proxy::ClusterStats::default();
+    for pod in pods {
+        ops.merge(pod.op_stages());
+        stats += &pod.cluster().stats();
+    }
+    (ops, stats)
+}
+
+/// As [`run_trial`], also recording every cluster's ticks and the single world's into
+/// `record` (see [`crate::record`]).
+pub fn run_recorded_trial(
+    scene: &Scene,
+    settings: &TrialSettings,
+    trace: Option<&str>,
+    record: Option<&std::path::Path>,
+) -> BenchResult<TrialResult> {
+    let scene = settings.apply(scene.clone());
+    let pod_settings = |transport: String| trial_pod_settings(settings, transport);
     let trial = TRIALS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let prefix = format!("seam_trial_{}_{trial}_", std::process::id());
     let mut reference = Pod::new(
@@ -258,10 +281,7 @@ pub fn run_recorded_trial(
     let mut reference_time = LatencyRecorder::default();
     let mut proxies_sum = 0u64;
     let mut recorder = match record {
-        Some(path) => {
-            let table = EntityTable::new(&scene, TRIAL_RUN, scene.ticks, 0.0, "seam compare", true);
-            Some(PodRecorder::create(path, table)?)
-        }
+        Some(path) => Some(trial_recorder(&scene, path)?),
         None => None,
     };
     let recording = |e: crate::record::RecordError| BenchError::from(e).within("recording");
@@ -290,12 +310,7 @@ pub fn run_recorded_trial(
     }
 
     let ticks = scene.ticks.max(1);
-    let mut ops = OpStages::default();
-    let mut stats = seam_proxy::ClusterStats::default();
-    for pod in &pods {
-        ops.merge(pod.op_stages());
-        stats += &pod.cluster().stats();
-    }
+    let (ops, stats) = merged(&pods);
     let mut p50s: Vec<u64> = tick_times.iter().map(|t| t.summary().p50_ns).collect();
     p50s.sort_unstable();
     let ops = ops.summary();

@@ -142,7 +142,7 @@ pub fn render_still(recording: &Recording, options: &StillOptions, out: &Path) -
         }
     }
     // Where each owner has each entity at this tick.
-    let mut pose: HashMap<u32, (f32, f32, u8, u16)> = HashMap::new();
+    let mut pose = Pose::new();
     for (&stream, t) in &slot {
         if Some(stream) == reference {
             continue;
@@ -152,8 +152,6 @@ pub fn render_still(recording: &Recording, options: &StillOptions, out: &Path) -
             pose.insert(p.entity, (x, z, p.heading, stream));
         }
     }
-    let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
-
     let root = BitMapBackend::new(out, options.size).into_drawing_area();
     let fail = |e: &dyn std::fmt::Display| BenchError::Chart {
         chart: out.display().to_string(),
@@ -161,6 +159,40 @@ pub fn render_still(recording: &Recording, options: &StillOptions, out: &Path) -
     };
     root.fill(&WHITE).map_err(|e| fail(&e))?;
     let view = View::fit(header, options.size);
+    draw_regions(&root, &view, header, &fail)?;
+    draw_scenery(&root, &view, header, &fail)?;
+    draw_bodies(&root, &view, header, &slot, reference, &fail)?;
+    if let Some(world) = options.world
+        && let Some(t) = slot.get(&world)
+    {
+        draw_proxies(&root, &view, header, t, &pose, &fail)?;
+    }
+    draw_handoffs(&root, &view, recording, tick, &pose, &fail)?;
+    draw_ops(&root, &view, recording, tick, &pose, &fail)?;
+    let title = format!(
+        "{} · {} · tick {tick} · {} owned",
+        header.scene,
+        header.source,
+        pose.len()
+    );
+    root.draw(&Text::new(
+        title,
+        (12, 8),
+        ("sans-serif", 16).into_font().color(&BLACK),
+    ))
+    .map_err(|e| fail(&e))?;
+    root.present().map_err(|e| fail(&e))?;
+    Ok(tick)
+}
+
+/// The image a still is drawn on.
+type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
+/// Makes a drawing error a [`BenchError`].
+type Fail<'f> = dyn Fn(&dyn std::fmt::Display) -> BenchError + 'f;
+
+/// Each cluster's region, tinted, its interest margin outlined, its name in a corner.
+fn draw_regions(root: &Area<'_>, view: &View, header: &Header, fail: &Fail<'_>) -> BenchResult<()> {
     for (i, c) in header.clusters.iter().enumerate() {
         let col = colour(i as u16);
         let a = view.at(c.min[0], c.min[2]);
@@ -181,6 +213,12 @@ pub fn render_still(recording: &Recording, options: &StillOptions, out: &Path) -
         ))
         .map_err(|e| fail(&e))?;
     }
+    Ok(())
+}
+
+/// The scenery every cluster loads, faint.
+fn draw_scenery(root: &Area<'_>, view: &View, header: &Header, fail: &Fail<'_>) -> BenchResult<()> {
+    let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
     for p in &header.scenery {
         if let Some(shape) = shape_of(p.entity) {
             let outline = view.outline(&shape, p.position[0], p.position[2], p.heading);
@@ -188,6 +226,18 @@ pub fn render_still(recording: &Recording, options: &StillOptions, out: &Path) -
                 .map_err(|e| fail(&e))?;
         }
     }
+    Ok(())
+}
+
+/// Every stream's owned bodies in its colour.
+fn draw_bodies(
+    root: &Area<'_>,
+    view: &View,
+    header: &Header,
+    slot: &HashMap<u16, &StreamTick>,
+    reference: Option<u16>,
+    fail: &Fail<'_>,
+) -> BenchResult<()> {
     let mut streams: Vec<&u16> = slot.keys().collect();
     streams.sort();
     // Fixed bodies (floors, walls) first and faint, so what moves shows on top of them.
@@ -216,19 +266,47 @@ pub fn render_still(recording: &Recording, options: &StillOptions, out: &Path) -
             }
         }
     }
-    if let Some(world) = options.world
-        && let Some(t) = slot.get(&world)
-    {
-        for e in &t.proxies {
-            let (Some(&(x, z, heading, owner)), Some(shape)) = (pose.get(e), shape_of(*e)) else {
-                continue;
-            };
-            let mut outline = view.outline(&shape, x, z, heading);
-            outline.push(outline[0]);
-            root.draw(&PathElement::new(outline, colour(owner).stroke_width(2)))
-                .map_err(|e| fail(&e))?;
-        }
+    Ok(())
+}
+
+/// The proxies world `t` holds, outlined in their owner's colour where their owner has them.
+fn draw_proxies(
+    root: &Area<'_>,
+    view: &View,
+    header: &Header,
+    t: &StreamTick,
+    pose: &Pose,
+    fail: &Fail<'_>,
+) -> BenchResult<()> {
+    let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
+    for e in &t.proxies {
+        let (Some(&(x, z, heading, owner)), Some(shape)) = (pose.get(e), shape_of(*e)) else {
+            continue;
+        };
+        let mut outline = view.outline(&shape, x, z, heading);
+        outline.push(outline[0]);
+        root.draw(&PathElement::new(outline, colour(owner).stroke_width(2)))
+            .map_err(|e| fail(&e))?;
     }
+    Ok(())
+}
+
+/// Where each owner has each entity at a tick: x, z, heading, stream.
+type Pose = HashMap<u32, (f32, f32, u8, u16)>;
+
+/// Recent hand-offs ringed, fading with age; a body in transit outlined where it was last
+/// owned.
+fn draw_handoffs(
+    root: &Area<'_>,
+    view: &View,
+    recording: &Recording,
+    tick: u64,
+    pose: &Pose,
+    fail: &Fail<'_>,
+) -> BenchResult<()> {
+    let header = &recording.header;
+    let reference = header.reference_stream();
+    let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
     // Where each entity was last owned up to this tick, for bodies in a hand-off now.
     let mut latest: HashMap<u32, (f32, f32, u8, u64)> = HashMap::new();
     for chunk in &recording.chunks {
@@ -265,6 +343,19 @@ pub fn render_still(recording: &Recording, options: &StillOptions, out: &Path) -
                 .map_err(|e| fail(&e))?;
         }
     }
+    Ok(())
+}
+
+/// Ops routed in the last ticks, a line from their sender's region to their target.
+fn draw_ops(
+    root: &Area<'_>,
+    view: &View,
+    recording: &Recording,
+    tick: u64,
+    pose: &Pose,
+    fail: &Fail<'_>,
+) -> BenchResult<()> {
+    let header = &recording.header;
     for chunk in &recording.chunks {
         let Chunk::Tick(t) = chunk else { continue };
         if t.tick > tick || t.tick + OP_TICKS < tick {
@@ -285,20 +376,7 @@ pub fn render_still(recording: &Recording, options: &StillOptions, out: &Path) -
             .map_err(|e| fail(&e))?;
         }
     }
-    let title = format!(
-        "{} · {} · tick {tick} · {} owned",
-        header.scene,
-        header.source,
-        pose.len()
-    );
-    root.draw(&Text::new(
-        title,
-        (12, 8),
-        ("sans-serif", 16).into_font().color(&BLACK),
-    ))
-    .map_err(|e| fail(&e))?;
-    root.present().map_err(|e| fail(&e))?;
-    Ok(tick)
+    Ok(())
 }
 
 /// Entities taken in a hand-off, or whose owning stream changed, within `window` ticks up to

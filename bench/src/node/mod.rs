@@ -299,18 +299,7 @@ pub fn run_node(
         (Some(name), false) => Part::Cluster(name.clone()),
         _ => Part::Reference,
     };
-    let settings = PodSettings {
-        proxy_mode: args.model.proxy_mode.into(),
-        authority: args.model.authority.mode(),
-        replication_interval: args.model.replication_interval,
-        coupling: !args.model.no_coupling,
-        state_encoding: args.model.state_encoding(),
-        keyframe_ticks: args.model.keyframe_ticks,
-        neighbour_timeout_ticks: args.neighbour_timeout_ticks,
-        rejoin: args.rejoin,
-        track_flips: args.track_flips,
-        ..PodSettings::new(&args.transport, &args.run_id)
-    };
+    let settings = pod_settings(args);
     let shown = seam_transport::redact_url(&args.transport);
     let mut pod =
         Pod::new(&scene, &part, &settings).context(format!("{}: {shown}", pod_name(&part)))?;
@@ -318,10 +307,94 @@ pub fn run_node(
     let fail = |e: seam_proxy::ClusterError| {
         BenchError::from(e).within(format!("{}: {shown}", pod_name(&part)))
     };
-    // Tick k is due at anchor + k · period; pods of one run share the anchor.
+    let (mut schedule, first_tick, start_late_ns) =
+        start_schedule(args, ticks, &mut pod).map_err(fail)?;
+    tracing::info!(
+        target: "seam::pod",
+        pod = pod.name(),
+        transport = %shown,
+        rate_hz = args.rate,
+        ticks,
+        first_tick,
+        "pod started"
+    );
+    let mut recorder = open_recording(args, &scene, ticks).context(pod_name(&part))?;
+    let mut ledger = open_ledger(args, &pod).context(pod_name(&part))?;
+    let ledger_failed =
+        |e: std::io::Error| BenchError::io("write", "the ledger", e).within(pod_name(&part));
+    let started = Instant::now();
+    let mut tally = Tally::new(&pod);
+    // The schedule stops the policy's hand-offs in the last ticks, so that those under way
+    // are taken before the neighbours stop (see `Cluster::stop_policy_handoffs`).
+    while let Some(due) = schedule
+        .wait_for_next(pod.cluster_mut(), stop)
+        .map_err(fail)?
+    {
+        tally.max_lag_ns = tally.max_lag_ns.max(due.lag_ns);
+        let begun = Instant::now();
+        pod.tick().map_err(fail)?;
+        if let Some(ledger) = &mut ledger {
+            ledger
+                .write(&ledger_entries(pod.last_events()))
+                .map_err(ledger_failed)?;
+        }
+        if let Some(recorder) = &mut recorder {
+            record_tick(recorder, &pod, begun, &mut tally)?;
+        }
+        let took = begun.elapsed().as_nanos() as u64;
+        tally.tick_time.record(took);
+        if schedule.period_ns().is_some_and(|p| took > p) {
+            tally.overruns += 1;
+        }
+        progress_due(args, &pod, due.tick + 1, ticks, &mut tally, out)?;
+    }
+    // Stopping on purpose: a neighbour still ticking (behind the schedule, or running
+    // longer) must not take this pod for dead and adopt what it ends the run owning.
+    pod.cluster_mut().leave().map_err(fail)?;
+    if let Some(ledger) = &mut ledger {
+        let mut last = ledger_entries(&pod.cluster_mut().take_events());
+        last.extend(pod.cluster().unanswered_names());
+        ledger.write(&last).map_err(ledger_failed)?;
+    }
+    let recorded = finish_recording(recorder, pod.name())?;
+    let done = schedule.next_tick();
+    let (entities_owned, proxies) = pod.population();
+    let report = node_report(
+        args,
+        &pod,
+        shown,
+        (first_tick, done, ticks),
+        (started, start_late_ns),
+        tally,
+        recorded,
+    );
+    tracing::info!(
+        target: "seam::pod",
+        pod = report.cluster,
+        ticks = report.ticks,
+        overruns = report.overruns,
+        owned = entities_owned,
+        proxies,
+        stopped_by_signal = report.stopped_by_signal,
+        "pod done"
+    );
+    if let Some(path) = &args.metrics {
+        write_metrics(path, &report)?;
+    }
+    emit(out, &NodeLine::Report(Box::new(report.clone())))?;
+    Ok(report)
+}
+
+/// The pod's schedule of `ticks` ticks, the first tick it runs, and how late it started (ns).
+/// Tick k is due at anchor + k · period; pods of one run share the anchor.
+fn start_schedule(
+    args: &NodeArgs,
+    ticks: u64,
+    pod: &mut Pod,
+) -> Result<(Schedule, u64, u64), seam_proxy::ClusterError> {
     let now = monotonic_ns();
-    let schedule = Schedule::new(args.rate, ticks).map_err(fail)?;
-    let (mut schedule, first_tick, start_late_ns) = match args.start_at {
+    let schedule = Schedule::new(args.rate, ticks)?;
+    Ok(match args.start_at {
         // A restarted pod joins the world at the tick the schedule is at.
         Some(at) if args.rejoin && at < now && schedule.period_ns().is_some() => {
             let mut schedule = schedule.starting_at(at);
@@ -332,105 +405,152 @@ pub fn run_node(
         // than racing through the ones it missed.
         Some(at) => (schedule.starting_at(at.max(now)), 0, now.saturating_sub(at)),
         None => (schedule, 0, 0),
+    })
+}
+
+/// The recorder `--record` asks for.
+fn open_recording(
+    args: &NodeArgs,
+    scene: &crate::scene::Scene,
+    ticks: u64,
+) -> BenchResult<Option<PodRecorder>> {
+    let Some(path) = &args.record else {
+        return Ok(None);
     };
-    tracing::info!(
-        target: "seam::pod",
-        pod = pod.name(),
-        transport = %shown,
-        rate_hz = args.rate,
+    let table = EntityTable::new(scene, &args.run_id, ticks, args.rate, "seam node", false);
+    Ok(Some(PodRecorder::create(path, table)?))
+}
+
+/// The ledger `--ledger` asks for.
+fn open_ledger(args: &NodeArgs, pod: &Pod) -> BenchResult<Option<LedgerFile>> {
+    let Some(path) = &args.ledger else {
+        return Ok(None);
+    };
+    let ledger = LedgerFile::create(path, pod.cluster().id())
+        .map_err(|e| BenchError::io("create the ledger", path.display(), e))?;
+    Ok(Some(ledger))
+}
+/// Records the tick `pod` ran since `begun`: the tick's own time goes in the recording, the
+/// recorder's in the tally.
+fn record_tick(
+    recorder: &mut PodRecorder,
+    pod: &Pod,
+    begun: Instant,
+    tally: &mut Tally,
+) -> BenchResult<()> {
+    let stepped = begun.elapsed().as_nanos() as u64;
+    recorder
+        .observe(pod, stepped)
+        .context(format!("{}: recording", pod.name()))?;
+    tally
+        .record_time
+        .record(begun.elapsed().as_nanos() as u64 - stepped);
+    Ok(())
+}
+
+/// Writes `report` as pretty JSON to `path` (`--metrics`).
+fn write_metrics(path: &std::path::Path, report: &NodeReport) -> BenchResult<()> {
+    let text = serde_json::to_string_pretty(report)?;
+    std::fs::write(path, text).map_err(|e| BenchError::io("write metrics to", path.display(), e))
+}
+
+/// What a pod's loop counts as it ticks, and when it last said so.
+struct Tally {
+    tick_time: LatencyRecorder,
+    record_time: LatencyRecorder,
+    overruns: u64,
+    max_lag_ns: u64,
+    proxies_peak: usize,
+    last_progress: Instant,
+    ops_reported: [u64; 7],
+}
+
+impl Tally {
+    fn new(pod: &Pod) -> Self {
+        Self {
+            tick_time: LatencyRecorder::default(),
+            record_time: LatencyRecorder::default(),
+            overruns: 0,
+            max_lag_ns: 0,
+            proxies_peak: 0,
+            last_progress: Instant::now(),
+            ops_reported: op_counts(&pod.cluster().stats()),
+        }
+    }
+}
+
+/// A progress line after tick `done` of `ticks` when one is due: a second after the last,
+/// at the last tick, or after a tick that settled or sent a routed op or contact report (so
+/// a pod killed a moment later leaves counts that add up with its neighbours'; see `seam
+/// chaos`'s op accounting).
+fn progress_due(
+    args: &NodeArgs,
+    pod: &Pod,
+    done: u64,
+    ticks: u64,
+    tally: &mut Tally,
+    out: &mut impl Write,
+) -> BenchResult<()> {
+    let ops_now = op_counts(&pod.cluster().stats());
+    let ops_moved = ops_now != tally.ops_reported;
+    if tally.last_progress.elapsed() < PROGRESS_EVERY && done != ticks && !ops_moved {
+        return Ok(());
+    }
+    tally.ops_reported = ops_now;
+    tally.last_progress = Instant::now();
+    let (owned, proxies) = pod.population();
+    tally.proxies_peak = tally.proxies_peak.max(proxies);
+    let progress = progress_line(pod, done, ticks, tally, owned, proxies);
+    if !args.quiet {
+        tracing::info!(target: "seam::pod", "{progress}");
+    }
+    emit(out, &NodeLine::Progress(Box::new(progress)))
+}
+
+/// The pod settings `args` ask for.
+fn pod_settings(args: &NodeArgs) -> PodSettings {
+    PodSettings {
+        proxy_mode: args.model.proxy_mode.into(),
+        authority: args.model.authority.mode(),
+        replication_interval: args.model.replication_interval,
+        coupling: !args.model.no_coupling,
+        state_encoding: args.model.state_encoding(),
+        keyframe_ticks: args.model.keyframe_ticks,
+        neighbour_timeout_ticks: args.neighbour_timeout_ticks,
+        rejoin: args.rejoin,
+        track_flips: args.track_flips,
+        ..PodSettings::new(&args.transport, &args.run_id)
+    }
+}
+
+/// The progress line after tick `done` of `ticks`.
+fn progress_line(
+    pod: &Pod,
+    done: u64,
+    ticks: u64,
+    tally: &Tally,
+    owned: usize,
+    proxies: usize,
+) -> NodeProgress {
+    NodeProgress {
+        cluster: pod.name().to_owned(),
+        tick: done,
         ticks,
-        first_tick,
-        "pod started"
-    );
-    let mut recorder = match &args.record {
-        Some(path) => {
-            let table =
-                EntityTable::new(&scene, &args.run_id, ticks, args.rate, "seam node", false);
-            Some(PodRecorder::create(path, table).context(pod_name(&part))?)
-        }
-        None => None,
-    };
-    let mut ledger = match &args.ledger {
-        Some(path) => Some(LedgerFile::create(path, pod.cluster().id()).map_err(|e| {
-            BenchError::io("create the ledger", path.display(), e).within(pod_name(&part))
-        })?),
-        None => None,
-    };
-    let ledger_failed =
-        |e: std::io::Error| BenchError::io("write", "the ledger", e).within(pod_name(&part));
-    let started = Instant::now();
-    let mut tick_time = LatencyRecorder::default();
-    let mut record_time = LatencyRecorder::default();
-    let (mut overruns, mut max_lag_ns, mut proxies_peak) = (0u64, 0u64, 0usize);
-    let mut last_progress = Instant::now();
-    let mut ops_reported = op_counts(&pod.cluster().stats());
-    // The schedule stops the policy's hand-offs in the last ticks, so that those under way
-    // are taken before the neighbours stop (see `Cluster::stop_policy_handoffs`).
-    while let Some(due) = schedule
-        .wait_for_next(pod.cluster_mut(), stop)
-        .map_err(fail)?
-    {
-        max_lag_ns = max_lag_ns.max(due.lag_ns);
-        let begun = Instant::now();
-        pod.tick().map_err(fail)?;
-        if let Some(ledger) = &mut ledger {
-            ledger
-                .write(&ledger_entries(pod.last_events()))
-                .map_err(ledger_failed)?;
-        }
-        if let Some(recorder) = &mut recorder {
-            // The tick's own time goes in the recording; the recorder's counts in the pod's.
-            let stepped = begun.elapsed().as_nanos() as u64;
-            recorder
-                .observe(&pod, stepped)
-                .context(format!("{}: recording", pod.name()))?;
-            record_time.record(begun.elapsed().as_nanos() as u64 - stepped);
-        }
-        let took = begun.elapsed().as_nanos() as u64;
-        tick_time.record(took);
-        if schedule.period_ns().is_some_and(|p| took > p) {
-            overruns += 1;
-        }
-        let done = due.tick + 1;
-        // Also after a tick that settled or sent a routed op or contact report: a pod killed a
-        // moment later leaves counts that add up with its neighbours' (see `seam chaos`'s op
-        // accounting).
-        let ops_now = op_counts(&pod.cluster().stats());
-        let ops_moved = ops_now != ops_reported;
-        if last_progress.elapsed() >= PROGRESS_EVERY || done == ticks || ops_moved {
-            ops_reported = ops_now;
-            last_progress = Instant::now();
-            let (owned, proxies) = pod.population();
-            proxies_peak = proxies_peak.max(proxies);
-            let progress = NodeProgress {
-                cluster: pod.name().to_owned(),
-                tick: done,
-                ticks,
-                tick_p99_ns: tick_time.summary().p99_ns,
-                overruns,
-                entities_owned: owned,
-                proxies,
-                cluster_stats: pod.cluster().stats(),
-                transport_stats: pod.cluster().transport_stats().into(),
-                rss_kib: rss_kib(),
-                ops_unanswered: pod.cluster().ops_unanswered() as u64,
-                contacts_unanswered: pod.cluster().contacts_unanswered() as u64,
-            };
-            if !args.quiet {
-                tracing::info!(target: "seam::pod", "{progress}");
-            }
-            emit(out, &NodeLine::Progress(Box::new(progress)))?;
-        }
+        tick_p99_ns: tally.tick_time.summary().p99_ns,
+        overruns: tally.overruns,
+        entities_owned: owned,
+        proxies,
+        cluster_stats: pod.cluster().stats(),
+        transport_stats: pod.cluster().transport_stats().into(),
+        rss_kib: rss_kib(),
+        ops_unanswered: pod.cluster().ops_unanswered() as u64,
+        contacts_unanswered: pod.cluster().contacts_unanswered() as u64,
     }
-    // Stopping on purpose: a neighbour still ticking (behind the schedule, or running
-    // longer) must not take this pod for dead and adopt what it ends the run owning.
-    pod.cluster_mut().leave().map_err(fail)?;
-    if let Some(ledger) = &mut ledger {
-        let mut last = ledger_entries(&pod.cluster_mut().take_events());
-        last.extend(pod.cluster().unanswered_names());
-        ledger.write(&last).map_err(ledger_failed)?;
-    }
-    let (recorded_bytes, recorded_entity_ticks) = match recorder {
+}
+
+/// Closes the recording, if any: its bytes and entity ticks.
+fn finish_recording(recorder: Option<PodRecorder>, name: &str) -> BenchResult<(u64, u64)> {
+    Ok(match recorder {
         Some(recorder) => {
             let counts = (recorder.bytes, recorder.entity_ticks);
             if recorder.unknown > 0 {
@@ -440,17 +560,27 @@ pub fn run_node(
                     "entities the recording's table does not know were left out"
                 );
             }
-            recorder
-                .finish()
-                .context(format!("{}: recording", pod.name()))?;
+            recorder.finish().context(format!("{name}: recording"))?;
             counts
         }
         None => (0, 0),
-    };
-    let done = schedule.next_tick();
+    })
+}
+
+/// The pod's report at the end: `ticks` (first, next, planned), `times` (started, how late
+/// its start), the loop's tally and the recording's bytes and entity ticks.
+fn node_report(
+    args: &NodeArgs,
+    pod: &Pod,
+    shown: String,
+    (first_tick, done, ticks): (u64, u64, u64),
+    (started, start_late_ns): (Instant, u64),
+    tally: Tally,
+    recorded: (u64, u64),
+) -> NodeReport {
     let (entities_owned, proxies) = pod.population();
     let transport = pod.cluster().transport_stats();
-    let report = NodeReport {
+    NodeReport {
         cluster: pod.name().to_owned(),
         cluster_id: pod.cluster().id().to_string(),
         transport: shown,
@@ -461,13 +591,13 @@ pub fn run_node(
         stopped_by_signal: done < ticks,
         wall_s: started.elapsed().as_secs_f64(),
         start_late_ns,
-        tick_time,
-        overruns,
-        max_lag_ns,
+        tick_time: tally.tick_time,
+        overruns: tally.overruns,
+        max_lag_ns: tally.max_lag_ns,
         entities_at_start: pod.owned_at_start(),
         entities_owned,
         proxies,
-        proxies_peak: proxies_peak.max(proxies),
+        proxies_peak: tally.proxies_peak.max(proxies),
         cluster_stats: pod.cluster().stats(),
         transport_stats: transport.into(),
         events: pod.event_counts(),
@@ -483,30 +613,13 @@ pub fn run_node(
         proxied: pod.proxied(),
         projectiles_seen: pod.projectiles_seen(),
         flips: pod.flips().to_vec(),
-        recorded_bytes,
-        recorded_entity_ticks,
-        record_time: args.record.is_some().then_some(record_time),
+        recorded_bytes: recorded.0,
+        recorded_entity_ticks: recorded.1,
+        record_time: args.record.is_some().then_some(tally.record_time),
         rss_kib: rss_kib(),
         ops_unanswered: pod.cluster().ops_unanswered() as u64,
         contacts_unanswered: pod.cluster().contacts_unanswered() as u64,
-    };
-    tracing::info!(
-        target: "seam::pod",
-        pod = report.cluster,
-        ticks = report.ticks,
-        overruns,
-        owned = entities_owned,
-        proxies,
-        stopped_by_signal = report.stopped_by_signal,
-        "pod done"
-    );
-    if let Some(path) = &args.metrics {
-        let text = serde_json::to_string_pretty(&report)?;
-        std::fs::write(path, text)
-            .map_err(|e| BenchError::io("write metrics to", path.display(), e))?;
     }
-    emit(out, &NodeLine::Report(Box::new(report.clone())))?;
-    Ok(report)
 }
 
 /// Resident memory of this process, KiB (0 if `/proc` cannot say).

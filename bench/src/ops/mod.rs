@@ -120,6 +120,48 @@ pub fn run(plan: &OpsPlan, mut progress: impl FnMut(&str)) -> BenchResult<Vec<Op
     Ok(rows)
 }
 
+/// A frame of `batch` ops carrying `acks` answers, numbered as a pod numbers them.
+fn batch_frame(batch: usize, acks: usize) -> PhysicsEventsFrame {
+    PhysicsEventsFrame {
+        from: ClusterId::random(),
+        tick: 0,
+        published_ns: 0,
+        ops: Vec::with_capacity(batch),
+        // Answers to as many ops of the other side, numbered as a pod numbers its ops: one
+        // run of consecutive numbers, as a pod answers a batch.
+        acks: (acks > 0)
+            .then(|| OpAck {
+                seq: FIRST_SEQ,
+                more: (acks - 1) as u16,
+                issuer: None,
+                done: true,
+            })
+            .into_iter()
+            .collect(),
+        contacts: Vec::new(),
+        impulses: Vec::new(),
+        leaving: false,
+    }
+}
+
+/// `frame`'s ops made round `round`'s batch of `batch` impulses.
+fn fill_batch(frame: &mut PhysicsEventsFrame, round: u64, batch: usize) {
+    frame.ops.clear();
+    for i in 0..batch as u64 {
+        frame.ops.push(RoutedOp {
+            op: PhysicsOp::Impulse {
+                target: TARGET,
+                impulse: [1e-3, 0.0, 0.0],
+            },
+            seq: FIRST_SEQ + round * batch as u64 + i,
+            issuer: None,
+            issued_ns: monotonic_ns(),
+            issued_tick: round,
+            age_ticks: 0,
+        });
+    }
+}
+
 fn measure(
     url: &str,
     (batch, acks): (usize, usize),
@@ -156,26 +198,7 @@ fn measure(
     let mut buf = Vec::new();
     next_message(transport.as_mut(), WaitMode::Block, &mut buf).map_err(|e| fail("owner", &e))?;
 
-    let mut frame = PhysicsEventsFrame {
-        from: ClusterId::random(),
-        tick: 0,
-        published_ns: 0,
-        ops: Vec::with_capacity(batch),
-        // Answers to as many ops of the other side, numbered as a pod numbers its ops: one
-        // run of consecutive numbers, as a pod answers a batch.
-        acks: (acks > 0)
-            .then(|| OpAck {
-                seq: FIRST_SEQ,
-                more: (acks - 1) as u16,
-                issuer: None,
-                done: true,
-            })
-            .into_iter()
-            .collect(),
-        contacts: Vec::new(),
-        impulses: Vec::new(),
-        leaving: false,
-    };
+    let mut frame = batch_frame(batch, acks);
     let mut started = Instant::now();
     for round in 0..plan.warmup + plan.rounds {
         if round == plan.warmup {
@@ -183,20 +206,7 @@ fn measure(
         }
         // Frames tagged 1 are timed; warm-up frames are tagged 0.
         frame.tick = u64::from(round >= plan.warmup);
-        frame.ops.clear();
-        for i in 0..batch as u64 {
-            frame.ops.push(RoutedOp {
-                op: PhysicsOp::Impulse {
-                    target: TARGET,
-                    impulse: [1e-3, 0.0, 0.0],
-                },
-                seq: FIRST_SEQ + round * batch as u64 + i,
-                issuer: None,
-                issued_ns: monotonic_ns(),
-                issued_tick: round,
-                age_ticks: 0,
-            });
-        }
+        fill_batch(&mut frame, round, batch);
         // Sized for the largest stamp (varints grow with the value); stamped at the send.
         frame.published_ns = u64::MAX;
         let len = wire::encoded_len(&frame);

@@ -202,6 +202,78 @@ fn body_role(role: scene::Role) -> Option<BodyRole> {
     }
 }
 
+/// The pod's settings and the scene's world settings, into `config`.
+fn apply_settings(config: &mut ClusterConfig, scene: &Scene, settings: &PodSettings) {
+    config.proxy_mode = settings.proxy_mode;
+    config.authority = settings.authority;
+    config.replication_interval = settings.replication_interval.max(1);
+    config.coupling = settings.coupling;
+    config.state_encoding = settings.state_encoding;
+    config.keyframe_ticks = settings.keyframe_ticks;
+    config.dt = scene.dt;
+    config.gravity = scene.gravity;
+    config.max_linear_velocity = scene.max_speed;
+    config.neighbour_timeout_ticks = settings.neighbour_timeout_ticks;
+}
+
+/// Spawns what `cluster` (playing the clusters `plays`) loads of `scene`: every scenery
+/// entity, and the entities it owns unless it `rejoin`s (its neighbours hand those back).
+/// Every entity's ids by name, and how many it owns.
+fn spawn_entities(
+    cluster: &mut Cluster,
+    scene: &Scene,
+    ids: &SceneIds,
+    plays: &[String],
+    rejoin: bool,
+) -> Result<(HashMap<String, Vec<EntityId>>, usize), PodError> {
+    let cluster_id = cluster.id();
+    let mut entities: HashMap<String, Vec<EntityId>> = HashMap::new();
+    let mut owned_at_start = 0;
+    for entity in &scene.entities {
+        let body = BodySpec {
+            shape: wire_shape(&entity.shape),
+            density: entity.mass() / entity.shape.volume(),
+            ccd: entity.ccd,
+            simulated: true,
+        };
+        let grid = entity.grid.unwrap_or(scene::Grid {
+            count: [1, 1, 1],
+            spacing: [0.0; 3],
+        });
+        let copies = entities.entry(entity.name.clone()).or_default();
+        let mut index = 0;
+        for i in 0..grid.count[0] {
+            for j in 0..grid.count[1] {
+                for k in 0..grid.count[2] {
+                    let id = ids.entity(&entity.name, index);
+                    index += 1;
+                    copies.push(id);
+                    // Scenery is every cluster's, and a restarted pod loads it again; owned
+                    // entities are spawned by their owner at the start only.
+                    let owner = entity.owner.as_ref().filter(|o| plays.contains(*o));
+                    if !entity.is_scenery() && (owner.is_none() || rejoin) {
+                        continue;
+                    }
+                    let offset = [i, j, k].map(|n| n as f32);
+                    let state = EntityState::new(id, cluster_id, body)
+                        .at([0, 1, 2].map(|a| entity.position[a] + offset[a] * grid.spacing[a]))
+                        .rotated(entity.rotation)
+                        .velocity(entity.velocity)
+                        .spin(entity.angvel);
+                    match body_role(entity.role) {
+                        Some(role) => {
+                            cluster.spawn_owned(&state, role)?;
+                            owned_at_start += 1;
+                        }
+                        None => cluster.spawn_scenery(&state)?,
+                    }
+                }
+            }
+        }
+    }
+    Ok((entities, owned_at_start))
+}
+
 impl Pod {
     /// Starts `part` of `scene`: opens the transport, subscribes to the neighbours and spawns
     /// the entities it owns.
@@ -262,64 +334,13 @@ impl Pod {
         }
         config.region = region;
         config.spread = spread;
-        config.proxy_mode = settings.proxy_mode;
-        config.authority = settings.authority;
-        config.replication_interval = settings.replication_interval.max(1);
-        config.coupling = settings.coupling;
-        config.state_encoding = settings.state_encoding;
-        config.keyframe_ticks = settings.keyframe_ticks;
-        config.dt = scene.dt;
-        config.gravity = scene.gravity;
-        config.max_linear_velocity = scene.max_speed;
-        config.neighbour_timeout_ticks = settings.neighbour_timeout_ticks;
+        apply_settings(&mut config, scene, settings);
         let mut cluster = Cluster::new(config)?;
         // A pod reads its cluster's events after every tick: op timings, hand-offs, ledgers.
         cluster.keep_events();
 
-        let mut entities: HashMap<String, Vec<EntityId>> = HashMap::new();
-        let mut owned_at_start = 0;
-        for entity in &scene.entities {
-            let body = BodySpec {
-                shape: wire_shape(&entity.shape),
-                density: entity.mass() / entity.shape.volume(),
-                ccd: entity.ccd,
-                simulated: true,
-            };
-            let grid = entity.grid.unwrap_or(scene::Grid {
-                count: [1, 1, 1],
-                spacing: [0.0; 3],
-            });
-            let copies = entities.entry(entity.name.clone()).or_default();
-            let mut index = 0;
-            for i in 0..grid.count[0] {
-                for j in 0..grid.count[1] {
-                    for k in 0..grid.count[2] {
-                        let id = ids.entity(&entity.name, index);
-                        index += 1;
-                        copies.push(id);
-                        // Scenery is every cluster's, and a restarted pod loads it again; owned
-                        // entities are spawned by their owner at the start only.
-                        let owner = entity.owner.as_ref().filter(|o| plays.contains(*o));
-                        if !entity.is_scenery() && (owner.is_none() || settings.rejoin) {
-                            continue;
-                        }
-                        let offset = [i, j, k].map(|n| n as f32);
-                        let state = EntityState::new(id, cluster_id, body)
-                            .at([0, 1, 2].map(|a| entity.position[a] + offset[a] * grid.spacing[a]))
-                            .rotated(entity.rotation)
-                            .velocity(entity.velocity)
-                            .spin(entity.angvel);
-                        match body_role(entity.role) {
-                            Some(role) => {
-                                cluster.spawn_owned(&state, role)?;
-                                owned_at_start += 1;
-                            }
-                            None => cluster.spawn_scenery(&state)?,
-                        }
-                    }
-                }
-            }
-        }
+        let (entities, owned_at_start) =
+            spawn_entities(&mut cluster, scene, &ids, &plays, settings.rejoin)?;
         cluster.advertise()?;
         let mut events: Vec<(usize, Event)> = if settings.rejoin {
             Vec::new()

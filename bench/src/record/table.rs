@@ -71,25 +71,7 @@ impl EntityTable {
                 role: role_name(entity.role).into(),
             });
         }
-        for (index, event) in scene.events.iter().enumerate() {
-            let Event::Projectile { radius, .. } = event else {
-                continue;
-            };
-            let first = next;
-            for tick in event.tick()..ticks.max(event.tick() + 1) {
-                if let Some(shot) = event.shot_at(tick) {
-                    entities.insert(ids.event_entity(index, shot), next);
-                    next += 1;
-                }
-            }
-            groups.push(EntityGroup {
-                name: format!("projectile {index}"),
-                first,
-                copies: next - first,
-                shape: SceneShape::Ball { radius: *radius },
-                role: "projectile".into(),
-            });
-        }
+        number_projectiles(scene, &ids, ticks, &mut next, &mut entities, &mut groups);
         let mut streams: HashMap<ClusterId, u16> = scene
             .clusters
             .iter()
@@ -117,17 +99,7 @@ impl EntityTable {
             dt: scene.dt,
             ticks,
             rate_hz,
-            clusters: scene
-                .clusters
-                .iter()
-                .map(|c| RecordedCluster {
-                    name: c.name.clone(),
-                    min: c.region.min,
-                    max: c.region.max,
-                    spread: c.spread,
-                    host: c.host.clone(),
-                })
-                .collect(),
+            clusters: recorded_clusters(scene),
             streams: names,
             groups,
             scenery,
@@ -149,4 +121,50 @@ fn role_name(role: Role) -> &'static str {
         Role::Kinematic => "kinematic",
         Role::Scenery => "scenery",
     }
+}
+
+/// Numbers every projectile a scene's events fire within `ticks` ticks from `next` on, a
+/// group per event.
+fn number_projectiles(
+    scene: &Scene,
+    ids: &SceneIds,
+    ticks: u64,
+    next: &mut u32,
+    entities: &mut IdMap<EntityId, u32>,
+    groups: &mut Vec<EntityGroup>,
+) {
+    for (index, event) in scene.events.iter().enumerate() {
+        let Event::Projectile { radius, .. } = event else {
+            continue;
+        };
+        let first = *next;
+        for tick in event.tick()..ticks.max(event.tick() + 1) {
+            if let Some(shot) = event.shot_at(tick) {
+                entities.insert(ids.event_entity(index, shot), *next);
+                *next += 1;
+            }
+        }
+        groups.push(EntityGroup {
+            name: format!("projectile {index}"),
+            first,
+            copies: *next - first,
+            shape: SceneShape::Ball { radius: *radius },
+            role: "projectile".into(),
+        });
+    }
+}
+
+/// The scene's clusters as a recording names them.
+fn recorded_clusters(scene: &Scene) -> Vec<RecordedCluster> {
+    scene
+        .clusters
+        .iter()
+        .map(|c| RecordedCluster {
+            name: c.name.clone(),
+            min: c.region.min,
+            max: c.region.max,
+            spread: c.spread,
+            host: c.host.clone(),
+        })
+        .collect()
 }

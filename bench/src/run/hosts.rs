@@ -179,53 +179,65 @@ impl Bridges {
             namespaces,
         };
         for host in &hosts {
-            let redis = match (&bridges.namespaces, &bridges._loopback_relay, delay) {
-                (Some(ns), ..) => ns.redis_url(host, &plan.hosts.redis),
-                (None, Some(relay), Some((delayed, _))) if delayed == host => {
-                    redirect(&plan.hosts.redis, relay.addr())
-                }
-                _ => plan.hosts.redis.clone(),
-            };
-            let mut command = bridges.command(host, program);
-            command
-                .arg("bridge")
-                .arg(&plan.scene)
-                .args(["--host", host])
-                .args(["--run-id", &plan.run_id])
-                .args(["--local", &host_url(&plan.transport, host)?])
-                // Through the environment: the URL may hold a password.
-                .env("SEAM_REDIS", &redis)
-                .stdin(Stdio::null())
-                .stdout(Stdio::piped())
-                .stderr(Stdio::inherit());
-            if let Some(n) = plan.hosts.count {
-                command.args(["--hosts", &n.to_string()]);
-            }
-            let mut child = command
-                .spawn()
-                .map_err(|e| BenchError::io("start", format!("the bridge of host {host:?}"), e))?;
-            let stdout = child.stdout.take().ok_or_else(|| {
-                BenchError::process(format!("the bridge of host {host:?}"), "no stdout")
-            })?;
-            bridges.children.push(child);
-            bridges.hosts.push(host.clone());
-            let (ready, ready_rx) = mpsc::channel();
-            bridges
-                .readers
-                .push(std::thread::spawn(move || read_lines(stdout, ready)));
-            match ready_rx.recv_timeout(READY_TIMEOUT) {
-                Ok(()) => {}
-                Err(_) => {
-                    return Err(BenchError::Timeout {
-                        what: format!(
-                            "the bridge of host {host:?} did not get ready (its error is above)"
-                        ),
-                        waited: READY_TIMEOUT,
-                    });
-                }
-            }
+            bridges.start_one(plan, host, program, delay)?;
         }
         Ok(Some(bridges))
+    }
+
+    /// Starts the bridge of `host` with `program` and waits until it is ready; `delay` is
+    /// the delayed host and its delay, if any.
+    fn start_one(
+        &mut self,
+        plan: &RunPlan,
+        host: &str,
+        program: &std::ffi::OsStr,
+        delay: Option<(&str, Delay)>,
+    ) -> BenchResult<()> {
+        let redis = match (&self.namespaces, &self._loopback_relay, delay) {
+            (Some(ns), ..) => ns.redis_url(host, &plan.hosts.redis),
+            (None, Some(relay), Some((delayed, _))) if delayed == host => {
+                redirect(&plan.hosts.redis, relay.addr())
+            }
+            _ => plan.hosts.redis.clone(),
+        };
+        let mut command = self.command(host, program);
+        command
+            .arg("bridge")
+            .arg(&plan.scene)
+            .args(["--host", host])
+            .args(["--run-id", &plan.run_id])
+            .args(["--local", &host_url(&plan.transport, host)?])
+            // Through the environment: the URL may hold a password.
+            .env("SEAM_REDIS", &redis)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit());
+        if let Some(n) = plan.hosts.count {
+            command.args(["--hosts", &n.to_string()]);
+        }
+        let mut child = command
+            .spawn()
+            .map_err(|e| BenchError::io("start", format!("the bridge of host {host:?}"), e))?;
+        let stdout = child.stdout.take().ok_or_else(|| {
+            BenchError::process(format!("the bridge of host {host:?}"), "no stdout")
+        })?;
+        self.children.push(child);
+        self.hosts.push(host.to_owned());
+        let (ready, ready_rx) = mpsc::channel();
+        self.readers
+            .push(std::thread::spawn(move || read_lines(stdout, ready)));
+        match ready_rx.recv_timeout(READY_TIMEOUT) {
+            Ok(()) => {}
+            Err(_) => {
+                return Err(BenchError::Timeout {
+                    what: format!(
+                        "the bridge of host {host:?} did not get ready (its error is above)"
+                    ),
+                    waited: READY_TIMEOUT,
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The transport URL of the pod of cluster number `index`.

@@ -293,6 +293,86 @@ pub fn run(
     run_pods(plan, stop, progress).map(|(report, _)| report)
 }
 
+/// The Redis server a run's ops go through, if any: its transport's, or the hosts' server
+/// when the scene's clusters sit on more than one simulated host.
+fn redis_of<'a>(plan: &'a RunPlan, scene: &crate::scene::Scene) -> BenchResult<Option<&'a str>> {
+    Ok(if plan.transport.starts_with("redis://") {
+        Some(plan.transport.as_str())
+    } else if scene
+        .host_layout(plan.hosts.count)?
+        .iter()
+        .any(|h| h != "a")
+    {
+        Some(plan.hosts.redis.as_str())
+    } else {
+        None
+    })
+}
+
+/// When a run launched at `launched` is stopped, its pods still running. Generous: the
+/// planned run, plus start-up, plus ticks that may run slower than planned.
+fn run_deadline(plan: &RunPlan, ticks: u64, launched: Instant) -> Instant {
+    let planned = if plan.rate > 0.0 {
+        ticks as f64 / plan.rate
+    } else {
+        0.0
+    };
+    launched + plan.start_delay + Duration::from_secs_f64(planned * 3.0) + Duration::from_secs(60)
+}
+
+/// Waits for every pod and its stderr forwarder; notes what ended badly. Whether each pod
+/// failed, in order.
+fn wait_for_pods(
+    pods: &mut Pods,
+    forwarders: Vec<std::thread::JoinHandle<()>>,
+    panics: &AtomicU64,
+    problems: &mut Vec<String>,
+) -> BenchResult<Vec<bool>> {
+    let mut failed = Vec::new();
+    for (name, child) in &mut pods.0 {
+        let status = child
+            .wait()
+            .map_err(|e| BenchError::io("wait for", format!("pod {name:?}"), e))?;
+        failed.push(!status.success());
+        if !status.success() {
+            problems.push(format!(
+                "pod {name:?} exited with {status} (its error is above)"
+            ));
+        }
+    }
+    // Every pod has exited: the forwarders end once they have passed on the last lines.
+    for forwarder in forwarders {
+        if forwarder.join().is_err() {
+            problems.push("a stderr forwarder panicked".into());
+        }
+    }
+    let panicked = panics.load(Ordering::Relaxed);
+    if panicked > 0 {
+        problems.push(format!(
+            "{panicked} panic messages on the pods' stderr (above)"
+        ));
+    }
+    Ok(failed)
+}
+
+/// The reports the pods sent, in order; a pod that ended well without one is a problem.
+fn complete_reports(
+    pods: &Pods,
+    reports: Vec<Option<NodeReport>>,
+    failed: &[bool],
+    problems: &mut Vec<String>,
+) -> Vec<NodeReport> {
+    let mut complete = Vec::new();
+    for (((name, _), report), &failed) in pods.0.iter().zip(reports).zip(failed) {
+        match report {
+            Some(report) => complete.push(report),
+            None if !failed => problems.push(format!("pod {name:?} sent no report")),
+            None => {}
+        }
+    }
+    complete
+}
+
 /// As [`run`], also returning each pod's own report (hits, final positions, histograms).
 pub fn run_pods(
     plan: &RunPlan,
@@ -308,17 +388,7 @@ pub fn run_pods(
     let panics = Arc::new(AtomicU64::new(0));
     let mut forwarders = Vec::new();
     let pods_n = scene.clusters.len() as u64;
-    let redis_url = if plan.transport.starts_with("redis://") {
-        Some(plan.transport.as_str())
-    } else if scene
-        .host_layout(plan.hosts.count)?
-        .iter()
-        .any(|h| h != "a")
-    {
-        Some(plan.hosts.redis.as_str())
-    } else {
-        None
-    };
+    let redis_url = redis_of(plan, &scene)?;
     let redis_cpu_start = redis_url.and_then(crate::redis_server::server_cpu_s);
     let bridges = hosts::Bridges::start(plan, &scene)?;
     let start_at = start_at.max(monotonic_ns() + plan.start_delay.as_nanos() as u64);
@@ -347,16 +417,7 @@ pub fn run_pods(
     }
     drop(lines);
 
-    // Generous: the planned run, plus start-up, plus ticks that may run slower than planned.
-    let planned = if plan.rate > 0.0 {
-        ticks as f64 / plan.rate
-    } else {
-        0.0
-    };
-    let deadline = launched
-        + plan.start_delay
-        + Duration::from_secs_f64(planned * 3.0)
-        + Duration::from_secs(60);
+    let deadline = run_deadline(plan, ticks, launched);
     let mut latest: Vec<Option<NodeProgress>> = vec![None; pods.0.len()];
     let mut reports: Vec<Option<NodeReport>> = vec![None; pods.0.len()];
     let mut problems: Vec<String> = Vec::new();
@@ -388,39 +449,9 @@ pub fn run_pods(
             signalled = true;
         }
     }
-    let mut failed = Vec::new();
-    for (name, child) in &mut pods.0 {
-        let status = child
-            .wait()
-            .map_err(|e| BenchError::io("wait for", format!("pod {name:?}"), e))?;
-        failed.push(!status.success());
-        if !status.success() {
-            problems.push(format!(
-                "pod {name:?} exited with {status} (its error is above)"
-            ));
-        }
-    }
-    // Every pod has exited: the forwarders end once they have passed on the last lines.
-    for forwarder in forwarders {
-        if forwarder.join().is_err() {
-            problems.push("a stderr forwarder panicked".into());
-        }
-    }
-    let panicked = panics.load(Ordering::Relaxed);
-    if panicked > 0 {
-        problems.push(format!(
-            "{panicked} panic messages on the pods' stderr (above)"
-        ));
-    }
+    let failed = wait_for_pods(&mut pods, forwarders, &panics, &mut problems)?;
     let wall_s = launched.elapsed().as_secs_f64();
-    let mut complete = Vec::new();
-    for (((name, _), report), failed) in pods.0.iter().zip(reports).zip(failed) {
-        match report {
-            Some(report) => complete.push(report),
-            None if !failed => problems.push(format!("pod {name:?} sent no report")),
-            None => {}
-        }
-    }
+    let complete = complete_reports(&pods, reports, &failed, &mut problems);
     let hosts = match bridges.map(hosts::Bridges::finish).transpose() {
         Ok(hosts) => hosts,
         Err(e) => {

@@ -446,22 +446,41 @@ impl Scene {
 
     /// Checks what a run relies on; on failure, the byte offset to report and the message.
     pub(super) fn check(&self, text: &str) -> Result<(), (usize, String)> {
-        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
-        let positive = |x: f32| x.is_finite() && x > 0.0;
-        let cluster_names: Vec<&str> = self.clusters.iter().map(|c| c.name.as_str()).collect();
-        let known_cluster = |key: &str, name: &str| -> Result<(), (usize, String)> {
-            if cluster_names.contains(&name) {
-                Ok(())
-            } else {
-                Err((
-                    find(text, key, name),
-                    format!(
-                        "field `{key}`: no cluster named {name:?} (clusters: {})",
-                        cluster_names.join(", ")
-                    ),
-                ))
+        self.check_clusters(text)?;
+        let mut entity_names: Vec<&str> = Vec::new();
+        for entity in &self.entities {
+            if entity_names.contains(&entity.name.as_str()) {
+                return Err((
+                    find(text, "name", &entity.name),
+                    format!("entity {:?}: field `name`: defined twice", entity.name),
+                ));
             }
-        };
+            entity_names.push(&entity.name);
+            self.check_entity(text, entity)?;
+        }
+        for event in &self.events {
+            self.check_event(text, event, &entity_names)?;
+        }
+        Ok(())
+    }
+
+    /// `name`, the value of field `key`, names a cluster of the scene.
+    fn known_cluster(&self, text: &str, key: &str, name: &str) -> Result<(), (usize, String)> {
+        if self.clusters.iter().any(|c| c.name == name) {
+            return Ok(());
+        }
+        let names: Vec<&str> = self.clusters.iter().map(|c| c.name.as_str()).collect();
+        Err((
+            find(text, key, name),
+            format!(
+                "field `{key}`: no cluster named {name:?} (clusters: {})",
+                names.join(", ")
+            ),
+        ))
+    }
+
+    /// The world's settings, and every cluster: named once, its region the right way round.
+    fn check_clusters(&self, text: &str) -> Result<(), (usize, String)> {
         if self.clusters.is_empty() {
             return Err((0, "a scene needs at least one [[cluster]]".into()));
         }
@@ -472,7 +491,7 @@ impl Scene {
             ));
         }
         for (i, cluster) in self.clusters.iter().enumerate() {
-            if cluster_names[..i].contains(&cluster.name.as_str()) {
+            if self.clusters[..i].iter().any(|c| c.name == cluster.name) {
                 return Err((
                     find(text, "name", &cluster.name),
                     format!("field `name`: cluster {:?} is defined twice", cluster.name),
@@ -489,152 +508,156 @@ impl Scene {
                 ));
             }
         }
-        let mut entity_names: Vec<&str> = Vec::new();
-        for entity in &self.entities {
-            let at = find(text, "name", &entity.name);
-            let bad = |message: String| Err((at, format!("entity {:?}: {message}", entity.name)));
-            if entity_names.contains(&entity.name.as_str()) {
-                return bad("field `name`: defined twice".into());
-            }
-            entity_names.push(&entity.name);
-            match (&entity.owner, entity.is_scenery()) {
-                (Some(owner), false) => known_cluster("owner", owner)?,
-                (None, false) => {
-                    return bad("field `owner` is required (scenery alone has none)".into());
-                }
-                (Some(_), true) => {
-                    return bad(
-                        "field `owner`: scenery is owned by no cluster (every cluster loads it)"
-                            .into(),
-                    );
-                }
-                (None, true) => {}
-            }
-            if !entity
-                .shape
-                .sizes()
-                .iter()
-                .all(|&s| s.is_finite() && s > 0.0)
-            {
-                return bad("field `shape`: sizes must be positive".into());
-            }
-            match entity.mass {
-                Some(mass) if !positive(mass) => {
-                    return bad("field `mass` must be positive".into());
-                }
-                None if !entity.is_scenery() => {
-                    return bad("field `mass` is required (scenery alone has none)".into());
-                }
-                _ => {}
-            }
-            let vectors = [entity.position, entity.velocity, entity.angvel];
-            if !vectors.iter().all(|v| finite(v)) || !finite(&entity.rotation) {
+        Ok(())
+    }
+
+    /// One entity: owned as its kind requires, sized, massed, placed and turned sensibly.
+    fn check_entity(&self, text: &str, entity: &Entity) -> Result<(), (usize, String)> {
+        let at = find(text, "name", &entity.name);
+        let bad = |message: &str| Err((at, format!("entity {:?}: {message}", entity.name)));
+        match (&entity.owner, entity.is_scenery()) {
+            (Some(owner), false) => self.known_cluster(text, "owner", owner)?,
+            (None, false) => return bad("field `owner` is required (scenery alone has none)"),
+            (Some(_), true) => {
                 return bad(
-                    "fields `position`, `rotation`, `velocity`, `angvel` must be finite".into(),
+                    "field `owner`: scenery is owned by no cluster (every cluster loads it)",
                 );
             }
-            let [x, y, z, w] = entity.rotation;
-            if ((x * x + y * y + z * z + w * w).sqrt() - 1.0).abs() > 1e-3 {
-                return bad("field `rotation` must be a unit quaternion [x, y, z, w]".into());
-            }
-            if let Some(grid) = entity.grid
-                && (grid.count.contains(&0) || !finite(&grid.spacing))
-            {
-                return bad("field `grid`: counts must be at least 1, spacing finite".into());
-            }
+            (None, true) => {}
         }
-        for event in &self.events {
-            if event.every() == Some(0) {
-                return Err((
-                    find_number(text, "every", 0),
-                    "field `every` must be at least 1 tick".into(),
-                ));
+        if !entity
+            .shape
+            .sizes()
+            .iter()
+            .all(|&s| s.is_finite() && s > 0.0)
+        {
+            return bad("field `shape`: sizes must be positive");
+        }
+        match entity.mass {
+            Some(mass) if !positive(mass) => return bad("field `mass` must be positive"),
+            None if !entity.is_scenery() => {
+                return bad("field `mass` is required (scenery alone has none)");
             }
-            match event {
-                Event::Projectile {
-                    by,
-                    position,
-                    velocity,
-                    radius,
-                    mass,
-                    ..
-                } => {
-                    known_cluster("by", by)?;
-                    if !(finite(position)
-                        && finite(velocity)
-                        && positive(*radius)
-                        && positive(*mass))
-                    {
-                        return Err((
-                            find(text, "by", by),
-                            "projectile: `position`, `velocity` finite, `radius`, `mass` positive"
-                                .into(),
-                        ));
-                    }
-                }
-                Event::Explosion {
-                    by,
-                    center,
-                    radius,
-                    impulse,
-                    ..
-                } => {
-                    known_cluster("by", by)?;
-                    if !(finite(center) && positive(*radius) && impulse.is_finite()) {
-                        return Err((
-                            find(text, "by", by),
-                            "explosion: `center` finite, `radius` positive, `impulse` finite"
-                                .into(),
-                        ));
-                    }
-                }
-                Event::RaycastVolley {
-                    by,
-                    origin,
-                    directions,
-                    max_distance,
-                    impulse,
-                    ..
-                } => {
-                    known_cluster("by", by)?;
-                    let ok = finite(origin)
-                        && directions
-                            .iter()
-                            .all(|d| finite(d) && d.iter().any(|c| *c != 0.0))
-                        && positive(*max_distance)
-                        && impulse.is_finite();
-                    if !ok {
-                        return Err((
-                            find(text, "by", by),
-                            "raycast_volley: finite `origin`, non-zero `directions`, positive \
-                             `max_distance`, finite `impulse`"
-                                .into(),
-                        ));
-                    }
-                }
-                Event::Handoff { entity, to, .. } => {
-                    known_cluster("to", to)?;
-                    if !entity_names.contains(&entity.as_str()) {
-                        return Err((
-                            find(text, "entity", entity),
-                            format!("field `entity`: no entity named {entity:?}"),
-                        ));
-                    }
-                    if self
-                        .entities
-                        .iter()
-                        .any(|e| &e.name == entity && e.is_scenery())
-                    {
-                        return Err((
-                            find(text, "entity", entity),
-                            format!("field `entity`: {entity:?} is scenery, which nobody owns"),
-                        ));
-                    }
-                }
-            }
+            _ => {}
+        }
+        let vectors = [entity.position, entity.velocity, entity.angvel];
+        if !vectors.iter().all(|v| finite(v)) || !finite(&entity.rotation) {
+            return bad("fields `position`, `rotation`, `velocity`, `angvel` must be finite");
+        }
+        let [x, y, z, w] = entity.rotation;
+        if ((x * x + y * y + z * z + w * w).sqrt() - 1.0).abs() > 1e-3 {
+            return bad("field `rotation` must be a unit quaternion [x, y, z, w]");
+        }
+        if let Some(grid) = entity.grid
+            && (grid.count.contains(&0) || !finite(&grid.spacing))
+        {
+            return bad("field `grid`: counts must be at least 1, spacing finite");
         }
         Ok(())
     }
+
+    /// One scripted event: by a known cluster, its values finite, on a known owned entity.
+    fn check_event(
+        &self,
+        text: &str,
+        event: &Event,
+        entity_names: &[&str],
+    ) -> Result<(), (usize, String)> {
+        if event.every() == Some(0) {
+            return Err((
+                find_number(text, "every", 0),
+                "field `every` must be at least 1 tick".into(),
+            ));
+        }
+        let (by, ok, message) = match event {
+            Event::Projectile {
+                by,
+                position,
+                velocity,
+                radius,
+                mass,
+                ..
+            } => (
+                by,
+                finite(position) && finite(velocity) && positive(*radius) && positive(*mass),
+                "projectile: `position`, `velocity` finite, `radius`, `mass` positive",
+            ),
+            Event::Explosion {
+                by,
+                center,
+                radius,
+                impulse,
+                ..
+            } => (
+                by,
+                finite(center) && positive(*radius) && impulse.is_finite(),
+                "explosion: `center` finite, `radius` positive, `impulse` finite",
+            ),
+            Event::RaycastVolley {
+                by,
+                origin,
+                directions,
+                max_distance,
+                impulse,
+                ..
+            } => (
+                by,
+                finite(origin)
+                    && directions
+                        .iter()
+                        .all(|d| finite(d) && d.iter().any(|c| *c != 0.0))
+                    && positive(*max_distance)
+                    && impulse.is_finite(),
+                "raycast_volley: finite `origin`, non-zero `directions`, positive \
+                 `max_distance`, finite `impulse`",
+            ),
+            Event::Handoff { entity, to, .. } => {
+                self.known_cluster(text, "to", to)?;
+                return self.check_handoff(text, entity, entity_names);
+            }
+        };
+        self.known_cluster(text, "by", by)?;
+        if !ok {
+            return Err((find(text, "by", by), message.into()));
+        }
+        Ok(())
+    }
+
+    /// A hand-off's entity: one of the scene's, and not scenery.
+    fn check_handoff(
+        &self,
+        text: &str,
+        entity: &str,
+        entity_names: &[&str],
+    ) -> Result<(), (usize, String)> {
+        if !entity_names.contains(&entity) {
+            return Err((
+                find(text, "entity", entity),
+                format!("field `entity`: no entity named {entity:?}"),
+            ));
+        }
+        if self
+            .entities
+            .iter()
+            .any(|e| e.name == entity && e.is_scenery())
+        {
+            return Err((
+                find(text, "entity", entity),
+                format!("field `entity`: {entity:?} is scenery, which nobody owns"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Whether every value is finite.
+fn finite(v: &[f32]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+/// Whether `x` is finite and above zero.
+fn positive(x: f32) -> bool {
+    x.is_finite() && x > 0.0
 }
 
 /// The name of simulated host number `index`: `a`, `b`, … `z`, then `h26`, `h27`, ….

@@ -311,15 +311,9 @@ impl Panel {
     }
 }
 
-/// Hit recall against projectile speed, one line per (CCD, replication interval) for the
-/// shortest and longest interval, with proxies for everything if the sweep has that (so the
-/// proxy mode shows, not the interest region), else at the widest spread.
-fn hit_recall_vs_speed<DB: DrawingBackend>(
-    area: DrawingArea<DB, Shift>,
-    scene: &str,
-    mode: ProxyMode,
-    rows: &[&TrialResult],
-) -> BenchResult<()> {
+/// The rows [`hit_recall_vs_speed`] draws: the shortest and longest replication interval,
+/// with proxies for everything if the sweep has that, else at the widest spread (returned).
+fn hit_recall_rows<'a>(rows: &'a [&'a TrialResult]) -> (Option<f32>, Vec<&'a &'a TrialResult>) {
     let spread = if rows.iter().any(|r| r.settings.spread.is_none()) {
         None
     } else {
@@ -339,6 +333,19 @@ fn hit_recall_vs_speed<DB: DrawingBackend>(
         .iter()
         .filter(|r| r.settings.spread == spread && shown.contains(&r.settings.replication_interval))
         .collect();
+    (spread, rows)
+}
+
+/// Hit recall against projectile speed, one line per (CCD, replication interval) for the
+/// shortest and longest interval, with proxies for everything if the sweep has that (so the
+/// proxy mode shows, not the interest region), else at the widest spread.
+fn hit_recall_vs_speed<DB: DrawingBackend>(
+    area: DrawingArea<DB, Shift>,
+    scene: &str,
+    mode: ProxyMode,
+    rows: &[&TrialResult],
+) -> BenchResult<()> {
+    let (spread, rows) = hit_recall_rows(rows);
     let speeds: Vec<f64> = rows
         .iter()
         .filter_map(|r| r.settings.projectile_speed.map(f64::from))
