@@ -159,16 +159,21 @@ pub fn render_still(recording: &Recording, options: &StillOptions, out: &Path) -
     };
     root.fill(&WHITE).map_err(|e| fail(&e))?;
     let view = View::fit(header, options.size);
-    draw_regions(&root, &view, header, &fail)?;
-    draw_scenery(&root, &view, header, &fail)?;
-    draw_bodies(&root, &view, header, &slot, reference, &fail)?;
+    let canvas = Canvas {
+        root: &root,
+        view: &view,
+        fail: &fail,
+    };
+    canvas.regions(header)?;
+    canvas.scenery(header)?;
+    canvas.bodies(header, &slot, reference)?;
     if let Some(world) = options.world
         && let Some(t) = slot.get(&world)
     {
-        draw_proxies(&root, &view, header, t, &pose, &fail)?;
+        canvas.proxies(header, t, &pose)?;
     }
-    draw_handoffs(&root, &view, recording, tick, &pose, &fail)?;
-    draw_ops(&root, &view, recording, tick, &pose, &fail)?;
+    canvas.handoffs(recording, tick, &pose)?;
+    canvas.ops(recording, tick, &pose)?;
     let title = format!(
         "{} · {} · tick {tick} · {} owned",
         header.scene,
@@ -191,192 +196,193 @@ type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
 /// Makes a drawing error a [`BenchError`].
 type Fail<'f> = dyn Fn(&dyn std::fmt::Display) -> BenchError + 'f;
 
-/// Each cluster's region, tinted, its interest margin outlined, its name in a corner.
-fn draw_regions(root: &Area<'_>, view: &View, header: &Header, fail: &Fail<'_>) -> BenchResult<()> {
-    for (i, c) in header.clusters.iter().enumerate() {
-        let col = colour(i as u16);
-        let a = view.at(c.min[0], c.min[2]);
-        let b = view.at(c.max[0], c.max[2]);
-        root.draw(&Rectangle::new([a, b], col.mix(0.08).filled()))
-            .map_err(|e| fail(&e))?;
-        root.draw(&Rectangle::new([a, b], col.stroke_width(1)))
-            .map_err(|e| fail(&e))?;
-        let s = c.spread;
-        let sa = view.at(c.min[0] - s, c.min[2] - s);
-        let sb = view.at(c.max[0] + s, c.max[2] + s);
-        root.draw(&Rectangle::new([sa, sb], col.mix(0.35).stroke_width(1)))
-            .map_err(|e| fail(&e))?;
-        root.draw(&Text::new(
-            c.name.clone(),
-            (a.0 + 4, a.1 + 4),
-            ("sans-serif", 14).into_font().color(&col),
-        ))
-        .map_err(|e| fail(&e))?;
-    }
-    Ok(())
-}
-
-/// The scenery every cluster loads, faint.
-fn draw_scenery(root: &Area<'_>, view: &View, header: &Header, fail: &Fail<'_>) -> BenchResult<()> {
-    let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
-    for p in &header.scenery {
-        if let Some(shape) = shape_of(p.entity) {
-            let outline = view.outline(&shape, p.position[0], p.position[2], p.heading);
-            root.draw(&Polygon::new(outline, BLACK.mix(0.13).filled()))
-                .map_err(|e| fail(&e))?;
-        }
-    }
-    Ok(())
-}
-
-/// Every stream's owned bodies in its colour.
-fn draw_bodies(
-    root: &Area<'_>,
-    view: &View,
-    header: &Header,
-    slot: &HashMap<u16, &StreamTick>,
-    reference: Option<u16>,
-    fail: &Fail<'_>,
-) -> BenchResult<()> {
-    let mut streams: Vec<&u16> = slot.keys().collect();
-    streams.sort();
-    // Fixed bodies (floors, walls) first and faint, so what moves shows on top of them.
-    for fixed in [true, false] {
-        for &stream in &streams {
-            if Some(*stream) == reference {
-                continue;
-            }
-            let col = colour(*stream);
-            for p in &slot[stream].owned {
-                let Some(group) = header.group_of(p.entity) else {
-                    continue;
-                };
-                if (group.role == "fixed") != fixed {
-                    continue;
-                }
-                let [x, _, z] = p.position();
-                let outline = view.outline(&group.shape, x, z, p.heading);
-                let style = if fixed {
-                    col.mix(0.18).filled()
-                } else {
-                    col.filled()
-                };
-                root.draw(&Polygon::new(outline, style))
-                    .map_err(|e| fail(&e))?;
-            }
-        }
-    }
-    Ok(())
-}
-
-/// The proxies world `t` holds, outlined in their owner's colour where their owner has them.
-fn draw_proxies(
-    root: &Area<'_>,
-    view: &View,
-    header: &Header,
-    t: &StreamTick,
-    pose: &Pose,
-    fail: &Fail<'_>,
-) -> BenchResult<()> {
-    let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
-    for e in &t.proxies {
-        let (Some(&(x, z, heading, owner)), Some(shape)) = (pose.get(e), shape_of(*e)) else {
-            continue;
-        };
-        let mut outline = view.outline(&shape, x, z, heading);
-        outline.push(outline[0]);
-        root.draw(&PathElement::new(outline, colour(owner).stroke_width(2)))
-            .map_err(|e| fail(&e))?;
-    }
-    Ok(())
+/// What a still is drawn on: the image, the view onto the world, and how a drawing error is
+/// said.
+struct Canvas<'a, 'b> {
+    root: &'a Area<'b>,
+    view: &'a View,
+    fail: &'a Fail<'a>,
 }
 
 /// Where each owner has each entity at a tick: x, z, heading, stream.
 type Pose = HashMap<u32, (f32, f32, u8, u16)>;
 
-/// Recent hand-offs ringed, fading with age; a body in transit outlined where it was last
-/// owned.
-fn draw_handoffs(
-    root: &Area<'_>,
-    view: &View,
-    recording: &Recording,
-    tick: u64,
-    pose: &Pose,
-    fail: &Fail<'_>,
-) -> BenchResult<()> {
-    let header = &recording.header;
-    let reference = header.reference_stream();
-    let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
-    // Where each entity was last owned up to this tick, for bodies in a hand-off now.
-    let mut latest: HashMap<u32, (f32, f32, u8, u64)> = HashMap::new();
-    for chunk in &recording.chunks {
-        if let Chunk::Tick(t) = chunk
-            && t.tick <= tick
-            && Some(t.stream) != reference
-        {
-            for p in &t.owned {
-                let [x, _, z] = p.position();
-                latest.insert(p.entity, (x, z, p.heading, t.tick));
+impl Canvas<'_, '_> {
+    /// Each cluster's region, tinted, its interest margin outlined, its name in a corner.
+    fn regions(&self, header: &Header) -> BenchResult<()> {
+        for (i, c) in header.clusters.iter().enumerate() {
+            let col = colour(i as u16);
+            let a = self.view.at(c.min[0], c.min[2]);
+            let b = self.view.at(c.max[0], c.max[2]);
+            self.root
+                .draw(&Rectangle::new([a, b], col.mix(0.08).filled()))
+                .map_err(|e| (self.fail)(&e))?;
+            self.root
+                .draw(&Rectangle::new([a, b], col.stroke_width(1)))
+                .map_err(|e| (self.fail)(&e))?;
+            let s = c.spread;
+            let sa = self.view.at(c.min[0] - s, c.min[2] - s);
+            let sb = self.view.at(c.max[0] + s, c.max[2] + s);
+            self.root
+                .draw(&Rectangle::new([sa, sb], col.mix(0.35).stroke_width(1)))
+                .map_err(|e| (self.fail)(&e))?;
+            self.root
+                .draw(&Text::new(
+                    c.name.clone(),
+                    (a.0 + 4, a.1 + 4),
+                    ("sans-serif", 14).into_font().color(&col),
+                ))
+                .map_err(|e| (self.fail)(&e))?;
+        }
+        Ok(())
+    }
+
+    /// The scenery every cluster loads, faint.
+    fn scenery(&self, header: &Header) -> BenchResult<()> {
+        let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
+        for p in &header.scenery {
+            if let Some(shape) = shape_of(p.entity) {
+                let outline = self
+                    .view
+                    .outline(&shape, p.position[0], p.position[2], p.heading);
+                self.root
+                    .draw(&Polygon::new(outline, BLACK.mix(0.13).filled()))
+                    .map_err(|e| (self.fail)(&e))?;
             }
         }
+        Ok(())
     }
-    // Hand-offs: an entity taken, or whose owning stream changed, in the last ticks; one owned
-    // by nobody after this tick (in transit) outlined where it was last owned.
-    for (entity, at) in handoffs_before(recording, tick, HANDOFF_TICKS) {
-        let place = match pose.get(&entity) {
-            Some(&(x, z, _, _)) => Some((x, z)),
-            None => match (latest.get(&entity), shape_of(entity)) {
-                (Some(&(x, z, heading, seen)), Some(shape)) if seen + HANDOFF_TICKS >= tick => {
-                    let mut outline = view.outline(&shape, x, z, heading);
-                    outline.push(outline[0]);
-                    root.draw(&PathElement::new(outline, BLACK.mix(0.7).stroke_width(1)))
-                        .map_err(|e| fail(&e))?;
-                    Some((x, z))
-                }
-                _ => None,
-            },
-        };
-        if let Some((x, z)) = place {
-            let age = (tick - at) as f64 / HANDOFF_TICKS as f64;
-            let r = (8.0 + 22.0 * (1.0 - age)) as i32;
-            root.draw(&Circle::new(view.at(x, z), r, HANDOFF.stroke_width(3)))
-                .map_err(|e| fail(&e))?;
-        }
-    }
-    Ok(())
-}
 
-/// Ops routed in the last ticks, a line from their sender's region to their target.
-fn draw_ops(
-    root: &Area<'_>,
-    view: &View,
-    recording: &Recording,
-    tick: u64,
-    pose: &Pose,
-    fail: &Fail<'_>,
-) -> BenchResult<()> {
-    let header = &recording.header;
-    for chunk in &recording.chunks {
-        let Chunk::Tick(t) = chunk else { continue };
-        if t.tick > tick || t.tick + OP_TICKS < tick {
-            continue;
+    /// Every stream's owned bodies in its colour.
+    fn bodies(
+        &self,
+        header: &Header,
+        slot: &HashMap<u16, &StreamTick>,
+        reference: Option<u16>,
+    ) -> BenchResult<()> {
+        let mut streams: Vec<&u16> = slot.keys().collect();
+        streams.sort();
+        // Fixed bodies (floors, walls) first and faint, so what moves shows on top of them.
+        for fixed in [true, false] {
+            for &stream in &streams {
+                if Some(*stream) == reference {
+                    continue;
+                }
+                let col = colour(*stream);
+                for p in &slot[stream].owned {
+                    let Some(group) = header.group_of(p.entity) else {
+                        continue;
+                    };
+                    if (group.role == "fixed") != fixed {
+                        continue;
+                    }
+                    let [x, _, z] = p.position();
+                    let outline = self.view.outline(&group.shape, x, z, p.heading);
+                    let style = if fixed {
+                        col.mix(0.18).filled()
+                    } else {
+                        col.filled()
+                    };
+                    self.root
+                        .draw(&Polygon::new(outline, style))
+                        .map_err(|e| (self.fail)(&e))?;
+                }
+            }
         }
-        for op in &t.ops {
-            let (Some(from), Some(&(x, z, _, _))) = (op.from, pose.get(&op.target)) else {
-                continue;
-            };
-            let Some(c) = header.clusters.get(from as usize) else {
-                continue;
-            };
-            let start = view.at((c.min[0] + c.max[0]) / 2.0, (c.min[2] + c.max[2]) / 2.0);
-            root.draw(&PathElement::new(
-                vec![start, view.at(x, z)],
-                colour(from).stroke_width(2),
-            ))
-            .map_err(|e| fail(&e))?;
-        }
+        Ok(())
     }
-    Ok(())
+
+    /// The proxies world `t` holds, outlined in their owner's colour where their owner has them.
+    fn proxies(&self, header: &Header, t: &StreamTick, pose: &Pose) -> BenchResult<()> {
+        let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
+        for e in &t.proxies {
+            let (Some(&(x, z, heading, owner)), Some(shape)) = (pose.get(e), shape_of(*e)) else {
+                continue;
+            };
+            let mut outline = self.view.outline(&shape, x, z, heading);
+            outline.push(outline[0]);
+            self.root
+                .draw(&PathElement::new(outline, colour(owner).stroke_width(2)))
+                .map_err(|e| (self.fail)(&e))?;
+        }
+        Ok(())
+    }
+
+    /// Recent hand-offs ringed, fading with age; a body in transit outlined where it was last
+    /// owned.
+    fn handoffs(&self, recording: &Recording, tick: u64, pose: &Pose) -> BenchResult<()> {
+        let header = &recording.header;
+        let reference = header.reference_stream();
+        let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
+        // Where each entity was last owned up to this tick, for bodies in a hand-off now.
+        let mut latest: HashMap<u32, (f32, f32, u8, u64)> = HashMap::new();
+        for chunk in &recording.chunks {
+            if let Chunk::Tick(t) = chunk
+                && t.tick <= tick
+                && Some(t.stream) != reference
+            {
+                for p in &t.owned {
+                    let [x, _, z] = p.position();
+                    latest.insert(p.entity, (x, z, p.heading, t.tick));
+                }
+            }
+        }
+        // Hand-offs: an entity taken, or whose owning stream changed, in the last ticks; one owned
+        // by nobody after this tick (in transit) outlined where it was last owned.
+        for (entity, at) in handoffs_before(recording, tick, HANDOFF_TICKS) {
+            let place = match pose.get(&entity) {
+                Some(&(x, z, _, _)) => Some((x, z)),
+                None => match (latest.get(&entity), shape_of(entity)) {
+                    (Some(&(x, z, heading, seen)), Some(shape)) if seen + HANDOFF_TICKS >= tick => {
+                        let mut outline = self.view.outline(&shape, x, z, heading);
+                        outline.push(outline[0]);
+                        self.root
+                            .draw(&PathElement::new(outline, BLACK.mix(0.7).stroke_width(1)))
+                            .map_err(|e| (self.fail)(&e))?;
+                        Some((x, z))
+                    }
+                    _ => None,
+                },
+            };
+            if let Some((x, z)) = place {
+                let age = (tick - at) as f64 / HANDOFF_TICKS as f64;
+                let r = (8.0 + 22.0 * (1.0 - age)) as i32;
+                self.root
+                    .draw(&Circle::new(self.view.at(x, z), r, HANDOFF.stroke_width(3)))
+                    .map_err(|e| (self.fail)(&e))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Ops routed in the last ticks, a line from their sender's region to their target.
+    fn ops(&self, recording: &Recording, tick: u64, pose: &Pose) -> BenchResult<()> {
+        let header = &recording.header;
+        for chunk in &recording.chunks {
+            let Chunk::Tick(t) = chunk else { continue };
+            if t.tick > tick || t.tick + OP_TICKS < tick {
+                continue;
+            }
+            for op in &t.ops {
+                let (Some(from), Some(&(x, z, _, _))) = (op.from, pose.get(&op.target)) else {
+                    continue;
+                };
+                let Some(c) = header.clusters.get(from as usize) else {
+                    continue;
+                };
+                let start = self
+                    .view
+                    .at((c.min[0] + c.max[0]) / 2.0, (c.min[2] + c.max[2]) / 2.0);
+                self.root
+                    .draw(&PathElement::new(
+                        vec![start, self.view.at(x, z)],
+                        colour(from).stroke_width(2),
+                    ))
+                    .map_err(|e| (self.fail)(&e))?;
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Entities taken in a hand-off, or whose owning stream changed, within `window` ticks up to
