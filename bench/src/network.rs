@@ -112,6 +112,7 @@ pub fn document(trials: &[DelayTrial]) -> Document {
         ("hits", Right),
         ("pos RMS m", Right),
         ("pos max m", Right),
+        ("floor RMS, max m", Right),
         ("ops sent/applied", Right),
         ("op p50 tick", Right),
         ("op max tick", Right),
@@ -128,6 +129,10 @@ pub fn document(trials: &[DelayTrial]) -> Document {
             format!("{}/{}", a.hits_matched, a.hits_reference),
             format!("{:.4}", a.position_rms_m),
             format!("{:.3}", a.position_max_m),
+            format!(
+                "{:.4}, {:.3}",
+                t.result.floor.position_rms_m, t.result.floor.position_max_m
+            ),
             format!("{}/{}", c.ops_routed, c.ops),
             c.op_delay_p50_ticks.to_string(),
             c.op_delay_max_ticks.to_string(),
@@ -153,13 +158,13 @@ pub fn write(trials: &[DelayTrial], out: &Path) -> BenchResult<Vec<PathBuf>> {
     let mut file =
         std::fs::File::create(&csv).map_err(|e| BenchError::io("write", csv.display(), e))?;
     let mut text = String::from(
-        "scene,delay_ms,hit_recall,hits_matched,hits_reference,position_rms_m,position_max_m,ops_routed,ops,op_delay_p50_ticks,op_delay_max_ticks,op_transport_p50_us,tick_p99_us,handoffs,handoffs_untracked,handoff_jump_position_m,handoff_jump_velocity_mps,simulated_as\n",
+        "scene,delay_ms,hit_recall,hits_matched,hits_reference,position_rms_m,position_max_m,floor_position_rms_m,floor_position_max_m,floor_onset_tick,ops_routed,ops,op_delay_p50_ticks,op_delay_max_ticks,op_transport_p50_us,tick_p99_us,handoffs,handoffs_untracked,handoff_jump_position_m,handoff_jump_velocity_mps,simulated_as\n",
     );
     for t in trials {
         let a = &t.result.accuracy;
         let c = &t.result.cost;
         text += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
             t.result.scene,
             t.delay_ms,
             a.hit_recall.map_or(String::new(), |r| r.to_string()),
@@ -167,6 +172,12 @@ pub fn write(trials: &[DelayTrial], out: &Path) -> BenchResult<Vec<PathBuf>> {
             a.hits_reference,
             a.position_rms_m,
             a.position_max_m,
+            t.result.floor.position_rms_m,
+            t.result.floor.position_max_m,
+            t.result
+                .floor
+                .onset_tick
+                .map_or(String::new(), |t| t.to_string()),
             c.ops_routed,
             c.ops,
             c.op_delay_p50_ticks,
@@ -230,25 +241,45 @@ fn draw<DB: DrawingBackend>(
         .map_err(failed)?;
     let panels = area.split_evenly((1, 4));
     type Metric = fn(&DelayTrial) -> Option<f64>;
-    let metrics: [(&str, Metric); 4] = [
-        ("projectile hit recall", |t| t.result.accuracy.hit_recall),
-        ("routed-op delay p50, ticks", |t| {
-            Some(t.result.cost.op_delay_p50_ticks as f64)
-        }),
-        ("largest hand-off jump, m", |t| {
-            Some(t.result.accuracy.handoff_jump_position_m)
-        }),
-        ("final position RMS, m", |t| {
-            Some(t.result.accuracy.position_rms_m)
-        }),
+    // Each panel's metric, and the noise floor beside it where it has one.
+    let metrics: [(&str, Metric, Option<Metric>); 4] = [
+        (
+            "projectile hit recall",
+            |t| t.result.accuracy.hit_recall,
+            None,
+        ),
+        (
+            "routed-op delay p50, ticks",
+            |t| Some(t.result.cost.op_delay_p50_ticks as f64),
+            None,
+        ),
+        (
+            "largest hand-off jump, m",
+            |t| Some(t.result.accuracy.handoff_jump_position_m),
+            None,
+        ),
+        (
+            "final position RMS, m",
+            |t| Some(t.result.accuracy.position_rms_m),
+            Some(|t| Some(t.result.floor.position_rms_m)),
+        ),
     ];
     let x_max = rows.iter().map(|t| t.delay_ms).fold(1.0, f64::max) * 1.05;
-    for (panel, (label, metric)) in panels.iter().zip(metrics) {
-        let points: Vec<(f64, f64)> = rows
+    for (panel, (label, metric, floor)) in panels.iter().zip(metrics) {
+        let series = |metric: Metric| -> Vec<(f64, f64)> {
+            rows.iter()
+                .filter_map(|t| metric(t).map(|y| (t.delay_ms, y)))
+                .collect()
+        };
+        let points = series(metric);
+        let floor_points = floor.map(series).unwrap_or_default();
+        let y_max = points
             .iter()
-            .filter_map(|t| metric(t).map(|y| (t.delay_ms, y)))
-            .collect();
-        let y_max = points.iter().map(|p| p.1).fold(0.0, f64::max).max(1e-3) * 1.2;
+            .chain(&floor_points)
+            .map(|p| p.1)
+            .fold(0.0, f64::max)
+            .max(1e-3)
+            * 1.2;
         let mut chart = ChartBuilder::on(panel)
             .margin(12)
             .x_label_area_size(45)
@@ -271,6 +302,28 @@ fn draw<DB: DrawingBackend>(
         chart
             .draw_series(points.iter().map(|&p| Circle::new(p, 4, BLUE.filled())))
             .map_err(failed)?;
+        if !floor_points.is_empty() {
+            let green = RGBColor(44, 160, 44);
+            chart
+                .draw_series(DashedLineSeries::new(
+                    floor_points.iter().copied(),
+                    8,
+                    5,
+                    green.stroke_width(2),
+                ))
+                .map_err(failed)?
+                .label("noise floor (one world, perturbed)")
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x - 10, y), (x + 10, y)], green.stroke_width(2))
+                });
+            chart
+                .configure_series_labels()
+                .label_font(("sans-serif", 14))
+                .background_style(WHITE.mix(0.9))
+                .border_style(BLACK)
+                .draw()
+                .map_err(failed)?;
+        }
     }
     area.present().map_err(failed)
 }

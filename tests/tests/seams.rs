@@ -166,3 +166,38 @@ fn a_trace_names_an_entity_of_the_scene() {
         );
     }
 }
+
+/// The noise floor tells chaos from error: on a scene where nothing depends on round-off
+/// (`light-on-heavy`: one ball bounced off a heavy crate, nothing piled) a second single world
+/// perturbed at round-off stays within 0.1 mm of the first and never departs by 2 cm; on a
+/// chaotic one (`crossfire`: volleys into crate stacks) it ends metres off and departs at a
+/// tick the report names. The split's own onset is reported beside the floor's.
+#[test]
+fn the_noise_floor_is_zero_where_calm_and_not_where_chaotic() {
+    let scenes = scenes();
+    let run = |name: &str| {
+        let scene = scenes.iter().find(|s| s.name == name).expect(name);
+        run_trial(scene, &TrialSettings::default(), None).unwrap_or_else(|e| panic!("{name}: {e}"))
+    };
+    let calm = run("light-on-heavy");
+    assert!(
+        calm.floor.position_max_m < 1e-4 && calm.floor.onset_tick.is_none(),
+        "calm scene, floor ~0: {:?}",
+        calm.floor
+    );
+    let chaotic = run("crossfire");
+    assert!(
+        chaotic.floor.position_rms_m > 0.1 && chaotic.floor.onset_tick.is_some(),
+        "chaotic scene, a floor of its own: {:?}",
+        chaotic.floor
+    );
+    let onset = chaotic
+        .accuracy
+        .onset_tick
+        .expect("the split departs on crossfire");
+    assert!(
+        onset <= chaotic.ticks && chaotic.accuracy.position_max_m >= seam_bench::accuracy::ONSET_M,
+        "an onset is a tick of the run where a body was 2 cm off: {:?}",
+        chaotic.accuracy
+    );
+}

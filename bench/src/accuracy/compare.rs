@@ -24,6 +24,10 @@ pub struct Accuracy {
     /// The body with the largest position error (scene name, `#i` for a grid copy) and the
     /// tick it was largest at: where to look first.
     pub worst_body: Option<(String, u64)>,
+    /// The first tick any of those bodies was [`ONSET_M`] or more from its single-world copy
+    /// (`None`: none ever was). On a chaotic scene final errors say little (a second single
+    /// world perturbed at round-off ends as far off); when the worlds first part says more.
+    pub onset_tick: Option<u64>,
     /// Orientation error, RMS, degrees.
     pub rotation_rms_deg: f64,
     /// Largest orientation error, degrees.
@@ -80,6 +84,9 @@ pub struct Accuracy {
 /// A body within this distance of its single-world copy before a flip is judged for a jump
 /// at the flip, m.
 pub const TRACKED_M: f64 = 0.01;
+
+/// A body this far from its single-world copy marks the onset of an error, m.
+pub const ONSET_M: f64 = 0.02;
 
 /// Accumulates the comparison over a run.
 pub struct Comparison {
@@ -376,6 +383,9 @@ impl Comparison {
         self.pos_sq += error * error;
         self.rot_sq += turn * turn;
         self.samples += 1;
+        if error >= ONSET_M && self.acc.onset_tick.is_none() {
+            self.acc.onset_tick = Some(tick);
+        }
         if error > self.acc.position_max_m {
             self.acc.position_max_m = error;
             self.worst = Some((state.id, tick));

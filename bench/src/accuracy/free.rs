@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use seam_sim::wire::{EntityId, IdMap};
 
-use super::{Accuracy, Cost, TrialResult, TrialSettings};
+use super::{Accuracy, Basis, Cost, FloorRun, TrialResult, TrialSettings};
 use crate::error::{BenchResult, Context};
 use crate::node::{NodeReport, ProxyModeArg};
 use crate::pod::{Part, Pod, PodSettings};
@@ -88,23 +88,15 @@ fn judge_final_positions(
     truth: &IdMap<EntityId, [f32; 3]>,
     accuracy: &mut Accuracy,
 ) {
-    let (mut squares, mut samples) = (0.0f64, 0u64);
     let mut owners: IdMap<EntityId, u32> = IdMap::default();
+    let mut ended = Vec::new();
     for node in nodes {
-        for (id, position) in &node.final_positions {
-            *owners.entry(*id).or_default() += 1;
-            if let Some(t) = truth.get(id) {
-                let error = (0..3)
-                    .map(|k| f64::from(position[k] - t[k]).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                squares += error * error;
-                samples += 1;
-                accuracy.position_max_m = accuracy.position_max_m.max(error);
-            }
+        for &(id, position) in &node.final_positions {
+            *owners.entry(id).or_default() += 1;
+            ended.push((id, position));
         }
     }
-    accuracy.position_rms_m = (squares / samples.max(1) as f64).sqrt();
+    (accuracy.position_rms_m, accuracy.position_max_m) = super::floor::final_errors(&ended, truth);
     accuracy.duplicate_owner_ticks = owners.values().filter(|&&n| n > 1).count() as u64;
     accuracy.missing_entity_ticks =
         truth.keys().filter(|id| !owners.contains_key(*id)).count() as u64;
@@ -158,21 +150,27 @@ pub fn run_free_trial_on_hosts(
     let plan = free_run_plan(scene_path, settings, transport, free, run_id, ticks);
     let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})?;
 
-    let mut reference = Pod::new(
+    let reference_settings = |part: &str| PodSettings {
+        proxy_mode: settings.proxy_mode,
+        authority: settings.authority.mode(),
+        replication_interval: settings.replication_interval,
+        coupling: settings.coupling,
+        ..PodSettings::new(
+            format!(
+                "local?prefix=seam_free_{}_{run_id}_{part}_",
+                std::process::id()
+            ),
+            run_id,
+        )
+    };
+    let mut reference =
+        Pod::new(scene, &Part::Reference, &reference_settings("ref")).context("reference")?;
+    let mut floor = FloorRun::start(
         scene,
-        &Part::Reference,
-        &PodSettings {
-            proxy_mode: settings.proxy_mode,
-            authority: settings.authority.mode(),
-            replication_interval: settings.replication_interval,
-            coupling: settings.coupling,
-            ..PodSettings::new(
-                format!("local?prefix=seam_free_{}_{run_id}_", std::process::id()),
-                run_id,
-            )
-        },
-    )
-    .context("reference")?;
+        &reference,
+        &reference_settings("floor"),
+        Basis::FinalTick,
+    )?;
     // The reference states each recorded flip is judged against: (entity, tick).
     let mut wanted: std::collections::HashMap<u64, Vec<EntityId>> = Default::default();
     for flip in nodes.iter().flat_map(|n| &n.flips) {
@@ -181,6 +179,7 @@ pub fn run_free_trial_on_hosts(
     let mut truth_at: TruthAt = Default::default();
     for _ in 0..ticks {
         reference.tick().context("reference")?;
+        floor.observe(&reference)?;
         let sim = reference.cluster().sim();
         if let Some(ids) = wanted.get(&sim.tick()) {
             for &id in ids {
@@ -222,6 +221,7 @@ pub fn run_free_trial_on_hosts(
         },
         ticks,
         accuracy,
+        floor: floor.finish(&reference),
         cost: Cost {
             tick_p50_us: p50s.get(p50s.len() / 2).copied().unwrap_or(0) as f64 / 1e3,
             tick_sum_p50_us: p50s.iter().sum::<u64>() as f64 / 1e3,

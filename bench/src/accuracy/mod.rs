@@ -11,6 +11,7 @@
 //! projectiles their speed and CCD.
 
 mod compare;
+mod floor;
 mod free;
 
 use crate::error::{BenchError, BenchResult, Context};
@@ -26,7 +27,8 @@ use crate::latency::LatencyRecorder;
 use crate::node::AuthorityArgs;
 use crate::pod::{OpStages, Part, Pod, PodSettings};
 use crate::scene::{Event, Scene};
-pub use compare::{Accuracy, Comparison, TRACKED_M};
+pub use compare::{Accuracy, Comparison, ONSET_M, TRACKED_M};
+pub use floor::{Basis, FloorRun, PERTURBATION_M};
 pub use free::{FreeRunning, run_free_trial, run_free_trial_on_hosts};
 
 /// How long a lock-step tick may wait for a neighbour's frame before the trial fails.
@@ -182,6 +184,10 @@ pub struct TrialResult {
     pub ticks: u64,
     /// Accuracy against the reference.
     pub accuracy: Accuracy,
+    /// The noise floor: a second single world, every dynamic body moved
+    /// [`PERTURBATION_M`], judged against the reference with the same metrics (see
+    /// [`floor`]). An error at the floor is the scene's chaos, not the split's.
+    pub floor: Accuracy,
     /// Cost.
     pub cost: Cost,
 }
@@ -273,6 +279,12 @@ pub fn run_recorded_trial(
         })
         .collect::<Result<Vec<_>, _>>()?;
 
+    let mut floor = FloorRun::start(
+        &scene,
+        &reference,
+        &pod_settings(format!("local?prefix={prefix}floor_")),
+        Basis::EveryTick,
+    )?;
     let mut comparison = Comparison::new(&scene, &reference);
     if let Some(name) = trace {
         comparison.trace(&reference, name)?;
@@ -293,6 +305,7 @@ pub fn run_recorded_trial(
         if let Some(recorder) = &mut recorder {
             recorder.observe(&reference, took).map_err(recording)?;
         }
+        floor.observe(&reference)?;
         for (pod, time) in pods.iter_mut().zip(&mut tick_times) {
             let begun = Instant::now();
             pod.tick_lockstep(LOCKSTEP_TIMEOUT).context(pod.name())?;
@@ -321,6 +334,7 @@ pub fn run_recorded_trial(
         settings: *settings,
         ticks: scene.ticks,
         accuracy: comparison.finish(|id| reference.entity_name(id)),
+        floor: floor.finish(&reference),
         cost: Cost {
             tick_p50_us: p50s.get(p50s.len() / 2).copied().unwrap_or(0) as f64 / 1e3,
             tick_sum_p50_us: p50s.iter().sum::<u64>() as f64 / 1e3,
@@ -380,6 +394,9 @@ fn trial_text(r: &TrialResult) -> String {
          ({} states), spread {}, projectiles {}, CCD {}\n\n\
          accuracy\n\
          \x20 position error       RMS {:.4} m, max {:.4} m (over {}){}\n\
+         \x20 noise floor          RMS {:.4} m, max {:.4} m: one world again, every dynamic \
+         body moved {} µm\n\
+         \x20 onset                {} (the floor's {}): first tick a body is {} cm off one world\n\
          \x20 orientation error    RMS {:.3}°, max {:.3}°\n\
          \x20 projectile hits      {} in the single world, {} split, {} matched: recall {}, \
          precision {}, mean tick offset {:.2}\n\
@@ -424,6 +441,12 @@ fn trial_text(r: &TrialResult) -> String {
             .map_or(String::new(), |(name, tick)| format!(
                 ", largest: {name} at tick {tick}"
             )),
+        r.floor.position_rms_m,
+        r.floor.position_max_m,
+        PERTURBATION_M * 1e6,
+        onset_text(a.onset_tick, r.position_basis),
+        onset_text(r.floor.onset_tick, "every tick"),
+        ONSET_M * 100.0,
         a.rotation_rms_deg,
         a.rotation_max_deg,
         a.hits_reference,
@@ -460,6 +483,24 @@ fn trial_text(r: &TrialResult) -> String {
     )
 }
 
+/// An onset tick in words: `never`, or not known for a run judged by its final tick.
+fn onset_text(onset: Option<u64>, basis: &str) -> String {
+    match onset {
+        Some(tick) => format!("tick {tick}"),
+        None if basis == "every tick" => "never".to_owned(),
+        None => "not known (final tick only)".to_owned(),
+    }
+}
+
+/// An onset tick in a table cell.
+fn onset_cell(onset: Option<u64>, basis: &str) -> String {
+    match onset {
+        Some(tick) => tick.to_string(),
+        None if basis == "every tick" => "never".to_owned(),
+        None => "-".to_owned(),
+    }
+}
+
 /// Trial results as one table, a row each.
 fn summary(results: &[TrialResult]) -> Table {
     let mut table = Table::new(&[
@@ -470,6 +511,8 @@ fn summary(results: &[TrialResult]) -> Table {
         ("spread", Left),
         ("position RMS m", Right),
         ("max m", Right),
+        ("floor RMS, max m", Right),
+        ("onset (floor's)", Right),
         ("escaped", Right),
         ("hit recall", Right),
         ("precision", Right),
@@ -500,6 +543,15 @@ fn summary(results: &[TrialResult]) -> Table {
             },
             format!("{:.4}", a.position_rms_m),
             format!("{:.3}", a.position_max_m),
+            format!(
+                "{:.4}, {:.3}",
+                r.floor.position_rms_m, r.floor.position_max_m
+            ),
+            format!(
+                "{} ({})",
+                onset_cell(a.onset_tick, r.position_basis),
+                onset_cell(r.floor.onset_tick, "every tick")
+            ),
             a.escaped_bodies.to_string(),
             ratio(a.hit_recall),
             ratio(a.hit_precision),

@@ -71,6 +71,10 @@ pub struct PodSettings {
     pub rejoin: bool,
     /// Record every authority flip's states (see [`FlipRecord`]), for free-running accuracy.
     pub track_flips: bool,
+    /// Move every dynamic body this far from where the scene puts it, m, each in a direction
+    /// of its own drawn from its id (see [`perturbed`]): the noise floor's second single
+    /// world. 0 for every other pod.
+    pub perturbation_m: f32,
 }
 
 impl PodSettings {
@@ -89,6 +93,7 @@ impl PodSettings {
             neighbour_timeout_ticks: 60,
             rejoin: false,
             track_flips: false,
+            perturbation_m: 0.0,
         }
     }
 }
@@ -216,16 +221,35 @@ fn apply_settings(config: &mut ClusterConfig, scene: &Scene, settings: &PodSetti
     config.neighbour_timeout_ticks = settings.neighbour_timeout_ticks;
 }
 
+/// `position` moved `by` metres in a direction of `id`'s own: three 16-bit fields of the id,
+/// centred, as a vector, normalised. The same id moves the same way in every run.
+pub fn perturbed(position: [f32; 3], id: EntityId, by: f32) -> [f32; 3] {
+    if by == 0.0 {
+        return position;
+    }
+    let bits = id.as_u128();
+    let d = [0, 16, 32].map(|shift| ((bits >> shift) & 0xffff) as f32 - 32767.5);
+    let length = d
+        .iter()
+        .map(|c| c * c)
+        .sum::<f32>()
+        .sqrt()
+        .max(f32::MIN_POSITIVE);
+    [0, 1, 2].map(|a| position[a] + d[a] / length * by)
+}
+
 /// Spawns what `cluster` (playing the clusters `plays`) loads of `scene`: every scenery
-/// entity, and the entities it owns unless it `rejoin`s (its neighbours hand those back).
+/// entity, and the entities it owns unless it `rejoin`s (its neighbours hand those back);
+/// dynamic bodies moved by `settings.perturbation_m` (see [`perturbed`]).
 /// Every entity's ids by name, and how many it owns.
 fn spawn_entities(
     cluster: &mut Cluster,
     scene: &Scene,
     ids: &SceneIds,
     plays: &[String],
-    rejoin: bool,
+    settings: &PodSettings,
 ) -> Result<(HashMap<String, Vec<EntityId>>, usize), PodError> {
+    let rejoin = settings.rejoin;
     let cluster_id = cluster.id();
     let mut entities: HashMap<String, Vec<EntityId>> = HashMap::new();
     let mut owned_at_start = 0;
@@ -255,8 +279,13 @@ fn spawn_entities(
                         continue;
                     }
                     let offset = [i, j, k].map(|n| n as f32);
+                    let mut at =
+                        [0, 1, 2].map(|a| entity.position[a] + offset[a] * grid.spacing[a]);
+                    if entity.role == scene::Role::Dynamic {
+                        at = perturbed(at, id, settings.perturbation_m);
+                    }
                     let state = EntityState::new(id, cluster_id, body)
-                        .at([0, 1, 2].map(|a| entity.position[a] + offset[a] * grid.spacing[a]))
+                        .at(at)
                         .rotated(entity.rotation)
                         .velocity(entity.velocity)
                         .spin(entity.angvel);
@@ -340,7 +369,7 @@ impl Pod {
         cluster.keep_events();
 
         let (entities, owned_at_start) =
-            spawn_entities(&mut cluster, scene, &ids, &plays, settings.rejoin)?;
+            spawn_entities(&mut cluster, scene, &ids, &plays, settings)?;
         cluster.advertise()?;
         let mut events: Vec<(usize, Event)> = if settings.rejoin {
             Vec::new()

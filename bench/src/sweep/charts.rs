@@ -84,10 +84,6 @@ impl Chart<'_> {
     }
 }
 
-/// Scenes whose outcome hangs on chaotic contact (a crate stack blown apart): their charts say
-/// so, since a small difference anywhere grows to metres whatever the setting.
-const CHAOTIC: &[&str] = &["crossfire"];
-
 /// Draws every chart into `out`, each as `.svg` and `.png`: `accuracy_vs_cost_SCENE` for
 /// every scene, `hit_recall_vs_speed_SCENE_MODE` for every scene whose single world has hits.
 /// Returns the files written.
@@ -166,13 +162,14 @@ fn color_of(mode: ProxyMode) -> RGBColor {
     }
 }
 
+/// The accuracy axis of a chart that measures position error.
+const POSITION_ERROR: &str = "position error, RMS over bodies and ticks (m, log)";
+
 /// What a chart of `rows` measures accuracy by: the bodies' position error where they have any,
 /// else (shots at kinematic targets) the hits missed or extra, 2 − recall − precision.
 fn error_of(rows: &[&TrialResult]) -> (&'static str, fn(&TrialResult) -> f64) {
     if rows.iter().any(|r| r.accuracy.position_rms_m > 0.0) {
-        ("position error, RMS over bodies and ticks (m, log)", |r| {
-            r.accuracy.position_rms_m
-        })
+        (POSITION_ERROR, |r| r.accuracy.position_rms_m)
     } else {
         ("hit error: 2 − recall − precision (log)", |r| {
             2.0 - r.accuracy.hit_recall.unwrap_or(1.0) - r.accuracy.hit_precision.unwrap_or(1.0)
@@ -190,14 +187,24 @@ fn accuracy_vs_cost<DB: DrawingBackend>(
     rows: &[&TrialResult],
 ) -> BenchResult<()> {
     area.fill(&WHITE).map_err(failed)?;
-    let title = if CHAOTIC.contains(&scene) {
-        format!("{scene} (chaotic: metres of error whatever the setting): accuracy against cost")
-    } else {
-        format!("{scene}: accuracy against cost (one point per setting)")
+    let (label, error) = error_of(rows);
+    // The floor of position error: one world against itself perturbed (every trial of a
+    // scene has the same; the largest is drawn).
+    let floor = (label == POSITION_ERROR).then(|| {
+        rows.iter()
+            .map(|r| r.floor.position_rms_m)
+            .fold(0.0, f64::max)
+    });
+    let title = match floor {
+        Some(floor) if floor >= 0.01 => format!(
+            "{scene} (chaotic: one world perturbed by {} µm ends {floor:.2} m RMS off): \
+             accuracy against cost",
+            crate::accuracy::PERTURBATION_M * 1e6
+        ),
+        _ => format!("{scene}: accuracy against cost (one point per setting)"),
     };
     let area = area.titled(&title, ("sans-serif", 22)).map_err(failed)?;
     let (left, right) = area.split_horizontally(SIZE.0 / 2);
-    let (label, error) = error_of(rows);
     let one_world = rows
         .iter()
         .map(|r| r.cost.reference_tick_p50_us / 1000.0)
@@ -208,11 +215,13 @@ fn accuracy_vs_cost<DB: DrawingBackend>(
             x_label: "CPU per tick, clusters summed (ms)",
             cost: |r| r.cost.tick_sum_p50_us / 1000.0,
             reference: Some(one_world),
+            floor,
         },
         Panel {
             x_label: "bytes published per tick, all clusters (kB)",
             cost: |r| (r.cost.replication_bytes_per_tick + r.cost.events_bytes_per_tick) / 1000.0,
             reference: None,
+            floor,
         },
     ];
     for (panel, half) in panels.iter().zip([left, right]) {
@@ -227,6 +236,8 @@ struct Panel {
     cost: fn(&TrialResult) -> f64,
     /// The single world's cost, marked by a vertical line.
     reference: Option<f64>,
+    /// The noise floor of the error, marked by a horizontal line.
+    floor: Option<f64>,
 }
 
 impl Panel {
@@ -248,8 +259,14 @@ impl Panel {
             .fold(0.0, f64::max)
             * 1.1
             + 1e-3;
-        let y_min = points.iter().map(|p| p.1).fold(f64::INFINITY, f64::min) * 0.5;
-        let y_max = points.iter().map(|p| p.1).fold(0.0, f64::max) * 2.0;
+        let floor = self.floor.map(|f| f.max(1e-6));
+        let y_min = points
+            .iter()
+            .map(|p| p.1)
+            .chain(floor)
+            .fold(f64::INFINITY, f64::min)
+            * 0.5;
+        let y_max = points.iter().map(|p| p.1).chain(floor).fold(0.0, f64::max) * 2.0;
         let mut front: Vec<(f64, f64)> = points.iter().map(|p| (p.0, p.1)).collect();
         front.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
         let mut pareto: Vec<(f64, f64)> = Vec::new();
@@ -305,6 +322,21 @@ impl Panel {
                 .label("one world")
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x - 10, y), (x + 10, y)], grey.stroke_width(2))
+                });
+        }
+        if let Some(y) = floor {
+            let green = RGBColor(44, 160, 44);
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(0.0, y), (x_max, y)],
+                    8,
+                    5,
+                    green.stroke_width(2),
+                ))
+                .map_err(failed)?
+                .label("noise floor (one world, perturbed)")
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x - 10, y), (x + 10, y)], green.stroke_width(2))
                 });
         }
         draw_legend(&mut chart, SeriesLabelPosition::UpperRight)

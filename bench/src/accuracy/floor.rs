@@ -1,0 +1,137 @@
+//! The noise floor: how far a second single world, its dynamic bodies moved at round-off
+//! scale, drifts from the first on the same scene.
+//!
+//! A split world is never bit-identical to one world (sums run in another order, proxies
+//! stand in for bodies), so on a chaotic scene — volleys into piles, balls drifting into each
+//! other — it ends metres off for the same reason a perturbed single world does. The floor
+//! measures that: every dynamic body of the scene moved [`PERTURBATION_M`] in a direction of
+//! its own (see [`crate::pod::perturbed`]), run beside the single world tick for tick and
+//! judged with the same metrics ([`Comparison`]). A split error at the floor is chaos; one
+//! far above it, or one whose onset comes much earlier, is the split's.
+
+use std::collections::HashMap;
+use std::sync::Mutex;
+
+use seam_sim::wire::{EntityId, IdMap};
+
+use super::Accuracy;
+use super::compare::Comparison;
+use crate::error::{BenchResult, Context};
+use crate::pod::{Pod, PodSettings};
+use crate::scene::Scene;
+
+/// How far the floor's single world moves each dynamic body, m: 1 µm, about one f32 step at
+/// 10 m from the origin — round-off scale, as the split's own differences are (sums in another
+/// order). Measured beside 10 µm on the bundled scenes: the floors agree within 20 % where
+/// the scene is chaotic (`crossfire` 2.55 against 2.66 m RMS, `stacks` 0.057 against 0.051 m),
+/// and 10 µm lifts the floor of a calm scene above round-off (`seam-stack` 0.0015 against
+/// 0.0003 m, reaching 2 cm at tick 419 where 1 µm never does).
+pub const PERTURBATION_M: f32 = 1.0e-6;
+
+/// What the floor's positions are taken over, as for the split run it stands beside.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Basis {
+    /// Every tick (lock-step trials).
+    EveryTick,
+    /// The final tick only (free-running pods report where their bodies ended).
+    FinalTick,
+}
+
+/// Floors measured in this process, by scene (as the trial runs it), ids and basis: every
+/// trial of one scene has the same single world, so a sweep measures its floor once.
+static MEASURED: Mutex<Option<HashMap<String, Accuracy>>> = Mutex::new(None);
+
+fn measured(key: &str) -> Option<Accuracy> {
+    let floors = MEASURED.lock().unwrap_or_else(|e| e.into_inner());
+    floors.as_ref().and_then(|f| f.get(key).cloned())
+}
+
+fn remember(key: String, floor: &Accuracy) {
+    let mut floors = MEASURED.lock().unwrap_or_else(|e| e.into_inner());
+    floors.get_or_insert_default().insert(key, floor.clone());
+}
+
+/// The floor of one trial, run beside its single world.
+pub struct FloorRun {
+    key: String,
+    basis: Basis,
+    /// The perturbed world and its comparison with the single world; `None` when this
+    /// process has measured the floor already.
+    run: Option<(Pod, Comparison)>,
+}
+
+impl FloorRun {
+    /// The floor of `scene` beside `reference` (just built, not ticked), the perturbed world
+    /// built with `settings` (a transport of its own, the reference's run id).
+    pub fn start(
+        scene: &Scene,
+        reference: &Pod,
+        settings: &PodSettings,
+        basis: Basis,
+    ) -> BenchResult<Self> {
+        let key = format!("{scene:?} {} {basis:?}", settings.run_id);
+        let run = if measured(&key).is_some() {
+            None
+        } else {
+            let perturbed = Pod::new(
+                scene,
+                &crate::pod::Part::Reference,
+                &PodSettings {
+                    perturbation_m: PERTURBATION_M,
+                    ..settings.clone()
+                },
+            )
+            .context("noise floor")?;
+            Some((perturbed, Comparison::new(scene, reference)))
+        };
+        Ok(Self { key, basis, run })
+    }
+
+    /// One tick of the perturbed world, after one of `reference`.
+    pub fn observe(&mut self, reference: &Pod) -> BenchResult<()> {
+        if let Some((perturbed, comparison)) = &mut self.run {
+            perturbed.tick().context("noise floor")?;
+            comparison.observe(reference, std::slice::from_ref(perturbed));
+        }
+        Ok(())
+    }
+
+    /// The floor: the perturbed world judged against `reference` as a split run is.
+    pub fn finish(self, reference: &Pod) -> Accuracy {
+        if let Some(floor) = measured(&self.key) {
+            return floor;
+        }
+        let Some((perturbed, comparison)) = self.run else {
+            return Accuracy::default();
+        };
+        let mut floor = comparison.finish(|id| reference.entity_name(id));
+        if self.basis == Basis::FinalTick {
+            let truth: IdMap<EntityId, [f32; 3]> =
+                reference.simulated_positions().into_iter().collect();
+            let ended = perturbed.simulated_positions();
+            (floor.position_rms_m, floor.position_max_m) = final_errors(&ended, &truth);
+        }
+        remember(self.key, &floor);
+        floor
+    }
+}
+
+/// RMS and largest distance of `ended` from `truth` (bodies in both), m.
+pub(super) fn final_errors(
+    ended: &[(EntityId, [f32; 3])],
+    truth: &IdMap<EntityId, [f32; 3]>,
+) -> (f64, f64) {
+    let (mut squares, mut samples, mut max) = (0.0f64, 0u64, 0.0f64);
+    for (id, position) in ended {
+        if let Some(t) = truth.get(id) {
+            let error = (0..3)
+                .map(|k| f64::from(position[k] - t[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            squares += error * error;
+            samples += 1;
+            max = max.max(error);
+        }
+    }
+    ((squares / samples.max(1) as f64).sqrt(), max)
+}
