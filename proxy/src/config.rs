@@ -1,7 +1,7 @@
 //! What a cluster is told at start: [`ClusterConfig`] and [`ProxyMode`].
 
 use seam_sim::BodyRole;
-use seam_sim::wire::{ClusterId, StateEncoding};
+use seam_sim::wire::{ClusterId, Motion, StateEncoding};
 
 use crate::authority::AuthorityMode;
 use crate::world::{Region, WorldCluster};
@@ -9,7 +9,9 @@ use crate::world::{Region, WorldCluster};
 /// How a cluster models neighbour entities.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ProxyMode {
-    /// A Fixed body set to each replicated pose: exact at updates, still in between.
+    /// A Fixed body set to each replicated pose: exact at updates, still in between. A body
+    /// its owner moves kinematically (a platform) is proxied as in `KinematicVelocityBased`
+    /// even so (see [`ProxyMode::role_for`]).
     #[default]
     Fixed,
     /// A kinematic body given the velocity that reaches each replicated pose one tick later:
@@ -26,6 +28,18 @@ impl ProxyMode {
             ProxyMode::Fixed => BodyRole::Fixed,
             ProxyMode::KinematicVelocityBased => BodyRole::KinematicVelocityBased,
             ProxyMode::Custom => BodyRole::KinematicPositionBased,
+        }
+    }
+
+    /// The role of a proxy of an entity its owner moves as `motion`: a body its owner moves
+    /// kinematically (a platform) is proxied kinematic with its velocity in every mode but
+    /// `Custom` (where the hook decides), since Rapier carries what rests on a body only
+    /// through that body's velocity, which a Fixed body does not have; every other entity
+    /// by the mode.
+    pub fn role_for(self, motion: Motion) -> BodyRole {
+        match (self, motion) {
+            (ProxyMode::Fixed, Motion::Kinematic) => BodyRole::KinematicVelocityBased,
+            _ => self.role(),
         }
     }
 }

@@ -132,13 +132,15 @@ pub(crate) fn refresh_bounds(world: &mut PhysicsWorld, stale: &mut StaleBounds) 
     }
 }
 
-/// Moves a body to a (validated) replicated state as its role allows.
+/// Moves a body to a (validated) replicated state as its role allows (see
+/// `ClusterSim::apply_state`); `owned`: the state is of a body this cluster owns.
 pub(crate) fn apply_state(
     world: &mut PhysicsWorld,
     stale: &mut StaleBounds,
     entry: &mut Entry,
     state: &EntityState,
     dt: f32,
+    owned: bool,
 ) {
     entry.replicated = (state.linvel, state.angvel);
     let target = pose_of(state.position, state.rotation);
@@ -147,6 +149,11 @@ pub(crate) fn apply_state(
     let body = &mut world.bodies[entry.body];
     match entry.info.role {
         BodyRole::Dynamic | BodyRole::Fixed => {
+            body.set_position(target, true);
+            body.set_linvel(linvel, true);
+            body.set_angvel(angvel, true);
+        }
+        BodyRole::KinematicVelocityBased if owned => {
             body.set_position(target, true);
             body.set_linvel(linvel, true);
             body.set_angvel(angvel, true);

@@ -12,7 +12,7 @@ use crate::handle::{PhysicsHandle, TickContext};
 use crate::joints::Joints;
 use crate::router::WriteRouter;
 use crate::validate;
-use crate::wire::{ClusterId, EntityId, EntityState, IdMap, PhysicsOp};
+use crate::wire::{ClusterId, EntityId, EntityState, IdMap, Motion, PhysicsOp};
 
 /// One cluster's world: a Rapier world and a map entity → body.
 ///
@@ -143,7 +143,7 @@ impl ClusterSim {
         let mut state = *state;
         if state.cluster_id == self.config.cluster_id {
             // What its neighbours are told of how it moves.
-            state.body.simulated = role == BodyRole::Dynamic;
+            state.body.motion = Motion::of(role);
         }
         let mut entry = body::insert(&mut self.world, &mut self.stale, &state, role);
         entry.posed_tick = self.tick;
@@ -188,7 +188,7 @@ impl ClusterSim {
         // Where it stands now is where the entity is (a body handed away, say).
         entry.posed_tick = self.tick;
         if entry.info.owner == self.config.cluster_id {
-            entry.info.body.simulated = role == BodyRole::Dynamic;
+            entry.info.body.motion = Motion::of(role);
         }
         Ok(())
     }
@@ -231,9 +231,11 @@ impl ClusterSim {
     }
 
     /// Moves a body to a replicated state as its role allows: Fixed and dynamic bodies are set
-    /// to the pose and velocity; a kinematic velocity-based body gets the velocity that reaches
-    /// the pose in one step; a kinematic position-based body is moved there by the next step.
-    /// The authority is taken from the state too. Queries see the new pose at once.
+    /// to the pose and velocity; a proxy that is kinematic velocity-based gets the velocity
+    /// that reaches the pose in one step; a kinematic position-based body is moved there by the
+    /// next step. A kinematic velocity-based body this cluster owns (a platform taken over or
+    /// adopted) is set to the pose and velocity: the state is its own. The authority is taken
+    /// from the state too. Queries see the new pose at once.
     pub fn apply_state(&mut self, state: &EntityState) -> Result<(), SimError> {
         // The body keeps its shape, so only the motion is checked.
         validate::motion(state)?;
@@ -244,12 +246,14 @@ impl ClusterSim {
             .ok_or(SimError::UnknownEntity(state.id))?;
         entry.info.owner = state.cluster_id;
         entry.info.epoch = state.epoch;
+        let owned = state.cluster_id == self.config.cluster_id;
         body::apply_state(
             &mut self.world,
             &mut self.stale,
             entry,
             state,
             self.config.dt,
+            owned,
         );
         entry.posed_tick = self.tick;
         Ok(())

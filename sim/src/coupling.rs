@@ -32,7 +32,7 @@ use rapier3d::prelude::*;
 use crate::body::Entry;
 use crate::box_grid::BoxGrid;
 use crate::entity::BodyRole;
-use crate::wire::{ClusterId, EntityId, IdMap};
+use crate::wire::{ClusterId, EntityId, IdMap, Motion};
 
 /// How much closer than touching two swept boxes must come for a proxy to be coupled, metres:
 /// room for Rapier's contact prediction and for a step's worth of gravity.
@@ -109,7 +109,9 @@ fn reaches(
     dt: f32,
 ) -> Vec<(usize, Aabb)> {
     let is_proxy = |e: &Entry| {
-        e.info.owner != me && e.info.owner != ClusterId::SCENERY && e.info.body.simulated
+        e.info.owner != me
+            && e.info.owner != ClusterId::SCENERY
+            && e.info.body.motion == Motion::Simulated
     };
     let mut proxies: Vec<(usize, Aabb)> = Vec::new();
     for (index, (_, entry)) in entities.iter().enumerate() {

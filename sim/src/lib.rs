@@ -4,7 +4,7 @@
 //!
 //! ```
 //! use seam_sim::{BodyRole, ClusterSim, LocalOnly, SimConfig};
-//! use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape};
+//! use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Motion, Shape};
 //!
 //! let here = ClusterId::random();
 //! let mut sim = ClusterSim::new(SimConfig::new(here));
@@ -19,7 +19,7 @@
 //!         rotation: [0.0, 0.0, 0.0, 1.0],
 //!         linvel: [0.0; 3],
 //!         angvel: [0.0; 3],
-//!         body: BodySpec { shape: Shape::Ball { radius: 0.5 }, density: 1.0, ccd: false, simulated: true },
+//!         body: BodySpec { shape: Shape::Ball { radius: 0.5 }, density: 1.0, ccd: false, motion: Motion::Simulated },
 //!     },
 //!     BodyRole::Dynamic,
 //! )?;

@@ -35,7 +35,7 @@ fn state(i: u32) -> EntityState {
             },
             density: 1000.0,
             ccd: i.is_multiple_of(2),
-            simulated: true,
+            motion: seam_sim::wire::Motion::Simulated,
         },
     }
 }
@@ -405,4 +405,39 @@ fn delta_frames_carry_their_keyframe_and_unchanged_bits() {
             .prepare_delta(&frame, StateEncoding::Exact, short)
             .is_err()
     );
+}
+
+/// How the owner moves a body travels with its spec, `kinematic` included (a platform's
+/// proxies move with it, and a new owner keeps it kinematic); a spec that claims both
+/// simulated and kinematic is malformed, an error for the states that use it.
+#[test]
+fn a_body_motion_round_trips_and_both_flags_are_malformed() {
+    use seam_sim::wire::Motion;
+    let mut frame = ReplicationFrame {
+        from: ClusterId::from_u128(7),
+        tick: 42,
+        states: vec![state(0), state(3), state(6)],
+    };
+    for (s, motion) in
+        frame
+            .states
+            .iter_mut()
+            .zip([Motion::Simulated, Motion::Kinematic, Motion::Still])
+    {
+        s.body.motion = motion;
+    }
+    let mut bytes = encode(&frame);
+    assert_eq!(ReplicationFrame::decode(&bytes), Ok(frame.clone()));
+    // Header 20, one owner 16; the spec table follows, the kinematic body's second: flags at
+    // byte 1 of each 20-byte spec.
+    let flags = 20 + 16 + 20 + 1;
+    assert_eq!(
+        bytes[flags] & 6,
+        4,
+        "the kinematic spec has the kinematic bit only"
+    );
+    bytes[flags] |= 2;
+    let view = ReplicationView::parse(&bytes).expect("the frame's shape is sound");
+    assert!(view.state(1).is_err(), "both bits: malformed");
+    assert_eq!(view.state(0), Ok(frame.states[0]));
 }

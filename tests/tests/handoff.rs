@@ -18,7 +18,8 @@ seam_tests::backend_tests!(
     [shm: Shm],
     [
         a_handoff_whose_frame_is_lost_still_lands,
-        a_handoff_from_a_neighbour_a_tick_ahead_is_taken_at_its_own_tick
+        a_handoff_from_a_neighbour_a_tick_ahead_is_taken_at_its_own_tick,
+        a_platform_keeps_its_role_and_velocity_through_a_handoff
     ]
 );
 
@@ -295,5 +296,61 @@ fn stopped_policy_handoffs_hand_nothing_more() {
         owner(handed.id),
         vec![a],
         "B's ball handed to A, taken once"
+    );
+}
+
+/// A body its owner moves kinematically (a platform) is proxied with its velocity even in the
+/// Fixed proxy mode (Rapier carries what rests on a body only through that body's velocity),
+/// and handed over it stays kinematic with its velocity: the new owner moves it on at the same
+/// speed, one step a tick, and the old owner follows it as a moving proxy. (Before, the proxy
+/// was a Fixed body with no velocity, and the new owner took the platform as a Fixed body,
+/// stopped for good.)
+fn a_platform_keeps_its_role_and_velocity_through_a_handoff(ctx: &TestContext) {
+    let (mut clusters, a, b) = pair(&ctx.url(), |_, _, config| {
+        assert_eq!(config.proxy_mode, seam_proxy::ProxyMode::Fixed);
+    });
+    let speed = 2.0;
+    let platform = ball_at(-1.0, a).velocity([speed, 0.0, 0.0]);
+    clusters[0]
+        .spawn_owned(&platform, BodyRole::KinematicVelocityBased)
+        .expect("spawn");
+    let rounds = 40u32;
+    for round in 0..rounds {
+        if round == 20 {
+            let proxy = clusters[1].sim().state(platform.id).expect("B proxies it");
+            let role = clusters[1].sim().info(platform.id).map(|i| i.role);
+            assert_eq!(
+                role,
+                Some(BodyRole::KinematicVelocityBased),
+                "a moving proxy"
+            );
+            assert!((proxy.linvel[0] - speed).abs() < 1e-3, "{proxy:?}");
+            clusters[0]
+                .transfer_authority(platform.id, b)
+                .expect("hand over");
+        }
+        for cluster in &mut clusters {
+            cluster.tick(|_, _| {}).expect("tick");
+        }
+    }
+    let b_world = clusters[1].sim();
+    let info = b_world.info(platform.id).expect("B has the platform");
+    assert_eq!(
+        (info.owner, info.role),
+        (b, BodyRole::KinematicVelocityBased),
+        "B owns it, kinematic"
+    );
+    let state = b_world.state(platform.id).expect("state");
+    let dt = clusters[1].config().dt;
+    let expected = -1.0 + speed * dt * rounds as f32;
+    assert!(
+        (state.linvel[0] - speed).abs() < 1e-4 && (state.position[0] - expected).abs() < 1e-3,
+        "B moves it on at {speed} m/s to x = {expected}: {state:?}"
+    );
+    let a_role = clusters[0].sim().info(platform.id).map(|i| i.role);
+    assert_eq!(
+        a_role,
+        Some(BodyRole::KinematicVelocityBased),
+        "A follows it moving"
     );
 }

@@ -162,12 +162,19 @@ fn angle_deg(a: [f32; 4], b: [f32; 4]) -> f64 {
     2.0 * dot.abs().min(1.0).acos().to_degrees()
 }
 
-/// The dynamic bodies a world simulates itself, with their states.
+/// The bodies a world moves itself, with their states: dynamic ones, and kinematic ones its
+/// game code moves (a platform must be where the single world has it, and owned once, too).
 fn simulated(pod: &Pod) -> impl Iterator<Item = EntityState> + '_ {
     let sim = pod.cluster().sim();
     let me = pod.cluster().id();
     sim.entities()
-        .filter(move |(_, info)| info.owner == me && info.role == BodyRole::Dynamic)
+        .filter(move |(_, info)| {
+            info.owner == me
+                && matches!(
+                    info.role,
+                    BodyRole::Dynamic | BodyRole::KinematicVelocityBased
+                )
+        })
         .filter_map(|(id, _)| sim.state(id))
 }
 

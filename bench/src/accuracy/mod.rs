@@ -184,9 +184,9 @@ pub struct TrialResult {
     pub ticks: u64,
     /// Accuracy against the reference.
     pub accuracy: Accuracy,
-    /// The noise floor: a second single world, every dynamic body moved
-    /// [`PERTURBATION_M`], judged against the reference with the same metrics (see
-    /// [`floor`]). An error at the floor is the scene's chaos, not the split's.
+    /// The noise floor: a second single world, bodies inserted in reverse order and every
+    /// dynamic one moved [`PERTURBATION_M`], judged against the reference with the same
+    /// metrics (see [`floor`]). An error at the floor is the scene's chaos, not the split's.
     pub floor: Accuracy,
     /// Cost.
     pub cost: Cost,
@@ -394,8 +394,8 @@ fn trial_text(r: &TrialResult) -> String {
          ({} states), spread {}, projectiles {}, CCD {}\n\n\
          accuracy\n\
          \x20 position error       RMS {:.4} m, max {:.4} m (over {}){}\n\
-         \x20 noise floor          RMS {:.4} m, max {:.4} m: one world again, every dynamic \
-         body moved {} µm\n\
+         \x20 noise floor          RMS {:.4} m, max {:.4} m: one world again, bodies inserted in \
+         reverse order and each dynamic one moved {} µm\n\
          \x20 onset                {} (the floor's {}): first tick a body is {} cm off one world\n\
          \x20 orientation error    RMS {:.3}°, max {:.3}°\n\
          \x20 projectile hits      {} in the single world, {} split, {} matched: recall {}, \

@@ -1,5 +1,7 @@
 //! Explosions and raycast volleys, run as user code inside a tick.
 
+use std::collections::HashMap;
+
 use seam_sim::wire::{ClusterId, EntityId, Shape};
 use seam_sim::{BodyRole, PhysicsHandle, TickContext, WriteOutcome};
 use serde::{Deserialize, Serialize};
@@ -32,10 +34,11 @@ pub struct EventCounts {
 /// owner applies it.
 pub type RoutedPush = (EntityId, [f32; 3]);
 
-/// Runs the explosions and volleys of this tick; the pushes routed to other owners are added
-/// to `routed`.
+/// Runs the explosions, volleys and steers of this tick (`entities`: the scene's ids by
+/// name); the pushes routed to other owners are added to `routed`.
 pub(super) fn run(
     actions: &[Event],
+    entities: &HashMap<String, Vec<EntityId>>,
     context: &TickContext<'_>,
     physics: &mut PhysicsHandle<'_>,
     counts: &mut EventCounts,
@@ -96,6 +99,23 @@ pub(super) fn run(
                     let push = unit.map(|c| c * impulse);
                     let outcome = physics.apply_impulse(hit.entity, push);
                     tally(hit.entity, push, outcome, counts, routed);
+                }
+            }
+            Event::Steer {
+                entity, velocity, ..
+            } => {
+                // The owner steers its own bodies; a copy owned elsewhere is steered there.
+                let me = context.cluster_id();
+                for &id in entities.get(entity).into_iter().flatten() {
+                    if context.entity(id).is_some_and(|info| info.owner == me) {
+                        tally(
+                            id,
+                            [0.0; 3],
+                            physics.set_linvel(id, *velocity),
+                            counts,
+                            routed,
+                        );
+                    }
                 }
             }
             Event::Projectile { .. } | Event::Handoff { .. } => {}

@@ -71,9 +71,9 @@ pub struct PodSettings {
     pub rejoin: bool,
     /// Record every authority flip's states (see [`FlipRecord`]), for free-running accuracy.
     pub track_flips: bool,
-    /// Move every dynamic body this far from where the scene puts it, m, each in a direction
-    /// of its own drawn from its id (see [`perturbed`]): the noise floor's second single
-    /// world. 0 for every other pod.
+    /// The noise floor's second single world: every dynamic body moved this far from where
+    /// the scene puts it, m, each in a direction of its own drawn from its id (see
+    /// [`perturbed`]), and everything spawned in reverse order. 0 for every other pod.
     pub perturbation_m: f32,
 }
 
@@ -239,9 +239,11 @@ pub fn perturbed(position: [f32; 3], id: EntityId, by: f32) -> [f32; 3] {
 }
 
 /// Spawns what `cluster` (playing the clusters `plays`) loads of `scene`: every scenery
-/// entity, and the entities it owns unless it `rejoin`s (its neighbours hand those back);
-/// dynamic bodies moved by `settings.perturbation_m` (see [`perturbed`]).
-/// Every entity's ids by name, and how many it owns.
+/// entity, and the entities it owns unless it `rejoin`s (its neighbours hand those back).
+/// With `settings.perturbation_m`, the noise floor's world: dynamic bodies moved that far
+/// (see [`perturbed`]) and everything spawned in reverse order (Rapier's solver visits
+/// contacts in the order bodies were inserted, and a split world inserts them in another
+/// order than one world does). Every entity's ids by name, and how many it owns.
 fn spawn_entities(
     cluster: &mut Cluster,
     scene: &Scene,
@@ -249,16 +251,15 @@ fn spawn_entities(
     plays: &[String],
     settings: &PodSettings,
 ) -> Result<(HashMap<String, Vec<EntityId>>, usize), PodError> {
-    let rejoin = settings.rejoin;
     let cluster_id = cluster.id();
     let mut entities: HashMap<String, Vec<EntityId>> = HashMap::new();
-    let mut owned_at_start = 0;
+    let mut spawns: Vec<(EntityState, Option<BodyRole>)> = Vec::new();
     for entity in &scene.entities {
         let body = BodySpec {
             shape: wire_shape(&entity.shape),
             density: entity.mass() / entity.shape.volume(),
             ccd: entity.ccd,
-            simulated: true,
+            motion: seam_sim::wire::Motion::Simulated,
         };
         let grid = entity.grid.unwrap_or(scene::Grid {
             count: [1, 1, 1],
@@ -275,7 +276,7 @@ fn spawn_entities(
                     // Scenery is every cluster's, and a restarted pod loads it again; owned
                     // entities are spawned by their owner at the start only.
                     let owner = entity.owner.as_ref().filter(|o| plays.contains(*o));
-                    if !entity.is_scenery() && (owner.is_none() || rejoin) {
+                    if !entity.is_scenery() && (owner.is_none() || settings.rejoin) {
                         continue;
                     }
                     let offset = [i, j, k].map(|n| n as f32);
@@ -289,15 +290,22 @@ fn spawn_entities(
                         .rotated(entity.rotation)
                         .velocity(entity.velocity)
                         .spin(entity.angvel);
-                    match body_role(entity.role) {
-                        Some(role) => {
-                            cluster.spawn_owned(&state, role)?;
-                            owned_at_start += 1;
-                        }
-                        None => cluster.spawn_scenery(&state)?,
-                    }
+                    spawns.push((state, body_role(entity.role)));
                 }
             }
+        }
+    }
+    if settings.perturbation_m != 0.0 {
+        spawns.reverse();
+    }
+    let mut owned_at_start = 0;
+    for (state, role) in spawns {
+        match role {
+            Some(role) => {
+                cluster.spawn_owned(&state, role)?;
+                owned_at_start += 1;
+            }
+            None => cluster.spawn_scenery(&state)?,
         }
     }
     Ok((entities, owned_at_start))
@@ -561,8 +569,10 @@ impl Pod {
     pub fn tick(&mut self) -> Result<(), ClusterError> {
         let actions = self.before_tick();
         let (counts, routed) = (&mut self.counts, &mut self.routed_pushes);
-        self.cluster
-            .tick(|context, physics| events::run(&actions, context, physics, counts, routed))?;
+        let entities = &self.entities;
+        self.cluster.tick(|context, physics| {
+            events::run(&actions, entities, context, physics, counts, routed)
+        })?;
         self.after_tick();
         Ok(())
     }
@@ -571,8 +581,9 @@ impl Pod {
     pub fn tick_lockstep(&mut self, timeout: Duration) -> Result<(), ClusterError> {
         let actions = self.before_tick();
         let (counts, routed) = (&mut self.counts, &mut self.routed_pushes);
+        let entities = &self.entities;
         self.cluster.tick_lockstep(timeout, |context, physics| {
-            events::run(&actions, context, physics, counts, routed)
+            events::run(&actions, entities, context, physics, counts, routed)
         })?;
         self.after_tick();
         Ok(())
@@ -702,6 +713,7 @@ impl Pod {
                 {
                     actions.push(event.clone());
                 }
+                Event::Steer { .. } => actions.push(event.clone()),
                 _ => {}
             }
         }

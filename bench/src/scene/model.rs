@@ -282,6 +282,16 @@ pub enum Event {
         /// The new owner.
         to: String,
     },
+    /// Whichever cluster owns an entity then sets its linear velocity: a platform or an
+    /// elevator turning round (every copy of a grid entry).
+    Steer {
+        /// When.
+        tick: u64,
+        /// The entity (by scene name).
+        entity: String,
+        /// Its new velocity, m/s.
+        velocity: [f32; 3],
+    },
 }
 
 impl Event {
@@ -291,7 +301,8 @@ impl Event {
             Event::Projectile { tick, .. }
             | Event::Explosion { tick, .. }
             | Event::RaycastVolley { tick, .. }
-            | Event::Handoff { tick, .. } => tick,
+            | Event::Handoff { tick, .. }
+            | Event::Steer { tick, .. } => tick,
         }
     }
 
@@ -301,7 +312,7 @@ impl Event {
             Event::Projectile { every, .. }
             | Event::Explosion { every, .. }
             | Event::RaycastVolley { every, .. } => every,
-            Event::Handoff { .. } => None,
+            Event::Handoff { .. } | Event::Steer { .. } => None,
         }
     }
 
@@ -615,6 +626,17 @@ impl Scene {
                 self.known_cluster(text, "to", to)?;
                 return self.check_handoff(text, entity, entity_names);
             }
+            Event::Steer {
+                entity, velocity, ..
+            } => {
+                if !finite(velocity) {
+                    return Err((
+                        find(text, "entity", entity),
+                        "steer: `velocity` finite".into(),
+                    ));
+                }
+                return self.check_handoff(text, entity, entity_names);
+            }
         };
         self.known_cluster(text, "by", by)?;
         if !ok {
@@ -623,7 +645,7 @@ impl Scene {
         Ok(())
     }
 
-    /// A hand-off's entity: one of the scene's, and not scenery.
+    /// A hand-off's or steer's entity: one of the scene's, and not scenery.
     fn check_handoff(
         &self,
         text: &str,

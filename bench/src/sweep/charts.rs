@@ -197,9 +197,8 @@ fn accuracy_vs_cost<DB: DrawingBackend>(
     });
     let title = match floor {
         Some(floor) if floor >= 0.01 => format!(
-            "{scene} (chaotic: one world perturbed by {} µm ends {floor:.2} m RMS off): \
-             accuracy against cost",
-            crate::accuracy::PERTURBATION_M * 1e6
+            "{scene} (chaotic: one world perturbed at round-off ends {floor:.2} m RMS off): \
+             accuracy against cost"
         ),
         _ => format!("{scene}: accuracy against cost (one point per setting)"),
     };

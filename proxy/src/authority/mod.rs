@@ -2,8 +2,8 @@
 //!
 //! An owner hands an entity over by [`Cluster::transfer_authority`](crate::Cluster) (scripted:
 //! game code decides) or because its [`AuthorityPolicy`] says so — the hook where an affinity
-//! system plugs in. The policy is asked at every replication frame with the dynamic bodies the
-//! cluster owns and their states, and names the hand-offs to make in that frame; the cluster
+//! system plugs in. The policy is asked at every replication frame with the bodies the
+//! cluster owns, their roles and states, and names the hand-offs to make in that frame; the cluster
 //! makes those that are valid (to a live neighbour) and that no scripted hand-off already
 //! claims.
 //!
@@ -36,8 +36,10 @@
 //! and forth (3 hand-offs at 0 m, 1 at 0.1 m, none at 0.25–1 m), each without gain. Margins
 //! from 0 to 0.5 m and a dwell of 1 leave every other figure as it is.
 //!
-//! Only dynamic bodies are handed over by a policy: a Fixed or kinematic body's role is its
-//! owner's to keep (the wire carries no role; a new owner simulates what it takes over).
+//! `Spatial` hands the bodies that move: dynamic ones, and kinematic ones their owner moves
+//! through their velocity (platforms, elevators), which keep that role and velocity at the new
+//! owner (the wire carries how the owner moves a body, `Motion`). A Fixed body stays with its
+//! owner.
 //!
 //! Who adopts a dead neighbour's entities is the other authority rule (`adoption`).
 

@@ -72,7 +72,9 @@ impl AuthorityPolicy for Spatial {
         let mut pending = std::mem::take(&mut self.pending);
         let mut still = HashMap::new();
         for (state, role) in view.owned {
-            if *role != BodyRole::Dynamic {
+            // Bodies that move go with their region; a Fixed one stays with its owner. A
+            // platform is handed as a dynamic body is, and keeps its role and velocity.
+            if !matches!(role, BodyRole::Dynamic | BodyRole::KinematicVelocityBased) {
                 continue;
             }
             let ahead = [0, 1, 2].map(|k| state.position[k] + state.linvel[k] * view.lookahead_s);

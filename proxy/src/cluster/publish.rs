@@ -44,7 +44,7 @@ impl Cluster {
         self.handoffs.given(
             handing,
             tick,
-            self.config.proxy_mode.role(),
+            self.config.proxy_mode,
             &mut self.sim,
             &mut self.events,
         )

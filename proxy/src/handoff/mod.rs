@@ -14,7 +14,7 @@
 use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap};
 use seam_sim::{BodyRole, ClusterSim};
 
-use crate::config::ClusterConfig;
+use crate::config::{ClusterConfig, ProxyMode};
 use crate::error::ClusterError;
 use crate::events::{ClusterEvent, Events};
 use crate::neighbours::{NeighbourStatus, Neighbours};
@@ -27,14 +27,10 @@ const RELEASED_FOR: u64 = 600;
 /// bounds what a neighbour's frames can make this cluster keep.
 const MAX_EARLY_HANDOFFS: usize = 1 << 16;
 
-/// The role an entity's owner gives its body: dynamic if it is simulated, else Fixed (a body
-/// its old owner moved itself stands still until game code here moves it).
+/// The role an entity's owner gives its body: the one its motion says (a kinematic body
+/// stays kinematic with the velocity it was handed with).
 pub(crate) fn owner_role(state: &EntityState) -> BodyRole {
-    if state.body.simulated {
-        BodyRole::Dynamic
-    } else {
-        BodyRole::Fixed
-    }
+    state.body.motion.owner_role()
 }
 
 /// Takes back, as cluster `me`'s again, an entity handed over in `handed` that its new owner
@@ -135,7 +131,7 @@ impl Handoffs {
         &mut self,
         handing: Vec<EntityState>,
         tick: u64,
-        role: BodyRole,
+        mode: ProxyMode,
         sim: &mut ClusterSim,
         events: &mut Events,
     ) -> Result<(), ClusterError> {
@@ -143,7 +139,7 @@ impl Handoffs {
         for handed in handing {
             let entity = handed.id;
             sim.set_authority(entity, handed.cluster_id, handed.epoch)?;
-            sim.set_role(entity, role)?;
+            sim.set_role(entity, mode.role_for(handed.body.motion))?;
             self.in_transit.insert(entity, handed);
             self.released.insert(entity, (handed.epoch, tick));
             events.emit(ClusterEvent::HandoffGiven {

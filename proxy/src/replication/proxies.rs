@@ -1,6 +1,7 @@
 //! How a proxy follows its entity's replicated state, by [`ProxyMode`]: set to the pose
 //! (Fixed), given the velocities that carry it there (kinematic, see `dead_reckoning`), or
-//! moved by a [`CustomProxy`].
+//! moved by a [`CustomProxy`]. An entity its owner moves kinematically (a platform) is
+//! followed kinematically in the Fixed mode too, so what rests on it rides along.
 
 use seam_sim::wire::EntityState;
 use seam_sim::{BodyRole, ClusterSim, SimError};
@@ -40,9 +41,14 @@ impl Proxies {
             // Simulated here for now (see `seam_sim::coupling`): set to what its owner says.
             return sim.apply_state(state);
         }
+        let role = config.proxy_mode.role_for(state.body.motion);
+        if sim.info(state.id).is_some_and(|info| info.role != role) {
+            // Its owner moves it another way than before (a platform made dynamic, say).
+            sim.set_role(state.id, role)?;
+        }
         match config.proxy_mode {
-            ProxyMode::Fixed => sim.apply_state(state),
-            ProxyMode::KinematicVelocityBased => {
+            ProxyMode::Fixed if role == BodyRole::Fixed => sim.apply_state(state),
+            ProxyMode::Fixed | ProxyMode::KinematicVelocityBased => {
                 // Aim where the entity will be at the next update, so the proxy moves with it in
                 // between (see `dead_reckoning`).
                 let Some(now) = sim.state(state.id) else {

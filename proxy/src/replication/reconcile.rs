@@ -159,7 +159,7 @@ impl Reconcile<'_> {
             None if state.cluster_id == from && self.visible(state) => {
                 listed.insert(state.id, ());
                 self.sim
-                    .spawn(state, self.config.proxy_mode.role())
+                    .spawn(state, self.config.proxy_mode.role_for(state.body.motion))
                     .map_err(|_| Refused)?;
                 self.events
                     .emit(ClusterEvent::ProxySpawned { entity: state.id });

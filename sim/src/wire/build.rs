@@ -15,7 +15,7 @@
 //! assert_eq!(crate_.rotation, [0.0, 0.0, 0.0, 1.0]);
 //! ```
 
-use super::{BodySpec, ClusterId, EntityId, EntityState, Shape};
+use super::{BodySpec, ClusterId, EntityId, EntityState, Motion, Shape};
 
 impl Shape {
     /// A sphere of `radius` metres.
@@ -47,7 +47,7 @@ impl BodySpec {
             shape,
             density: 1000.0,
             ccd: false,
-            simulated: true,
+            motion: Motion::Simulated,
         }
     }
 
@@ -126,7 +126,7 @@ mod tests {
                 shape: Shape::Ball { radius: 0.25 },
                 density: 1000.0,
                 ccd: true,
-                simulated: true,
+                motion: Motion::Simulated,
             },
         };
         assert_eq!(built, literal);

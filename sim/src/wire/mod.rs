@@ -24,7 +24,7 @@ pub use codec::{WireError, decode, encode, encode_into, encoded_len};
 pub use events::{
     ContactReport, OpAck, PhysicsEventsFrame, PhysicsOp, RoutedOp, SeamImpulseReport,
 };
-pub use state::{BodySpec, EntityState, ReplicationFrame, Shape};
+pub use state::{BodySpec, EntityState, Motion, ReplicationFrame, Shape};
 
 /// The format version every frame starts with.
 pub const WIRE_VERSION: u8 = 7;

@@ -27,9 +27,49 @@ pub enum Shape {
     },
 }
 
+/// How an entity's owner moves its body.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Motion {
+    /// Simulated as a dynamic body. Only a proxy of a simulated entity takes part in
+    /// contacts with the entity's mass (see `seam_sim::coupling`).
+    #[default]
+    Simulated,
+    /// Moved by its owner through its velocity (a kinematic body: a platform, an elevator, a
+    /// door). Its proxies move with that velocity whatever the proxy mode, so bodies resting on
+    /// it are carried as in one world, and a new owner keeps it kinematic with its velocity.
+    Kinematic,
+    /// Does not move (a Fixed body).
+    Still,
+}
+
+impl Motion {
+    /// The motion of an owned body of `role`.
+    pub fn of(role: crate::BodyRole) -> Self {
+        match role {
+            crate::BodyRole::Dynamic => Motion::Simulated,
+            crate::BodyRole::Fixed => Motion::Still,
+            crate::BodyRole::KinematicVelocityBased | crate::BodyRole::KinematicPositionBased => {
+                Motion::Kinematic
+            }
+        }
+    }
+
+    /// The role its owner gives a body of this motion (a kinematic one velocity-based, with
+    /// the velocity it had).
+    pub fn owner_role(self) -> crate::BodyRole {
+        match self {
+            Motion::Simulated => crate::BodyRole::Dynamic,
+            Motion::Kinematic => crate::BodyRole::KinematicVelocityBased,
+            Motion::Still => crate::BodyRole::Fixed,
+        }
+    }
+}
+
 /// The spec of the body an entity is, beyond its pose: shape, density, whether it needs
-/// continuous collision detection, and whether its owner simulates it. It travels with every state so a cluster that takes authority over an
-/// entity simulates it with the same mass and CCD as the previous owner.
+/// continuous collision detection, and how its owner moves it. It travels with every state so
+/// a cluster that takes authority over an entity simulates it with the same mass and CCD as
+/// the previous owner, and moves it the same way.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct BodySpec {
     /// The collision shape.
@@ -38,11 +78,9 @@ pub struct BodySpec {
     pub density: f32,
     /// Continuous collision detection, for fast bodies that must not tunnel through thin ones.
     pub ccd: bool,
-    /// Whether its authority simulates it as a dynamic body (`false` for Fixed and kinematic
-    /// bodies its owner moves itself). Only a proxy of a simulated entity takes part in
-    /// contacts with the entity's mass (see `seam_sim::coupling`); an adopter or new owner
-    /// gives the body back the role it had.
-    pub simulated: bool,
+    /// How its owner moves it; an adopter or new owner gives the body back the role it had
+    /// (see [`Motion::owner_role`]).
+    pub motion: Motion,
 }
 
 /// One entity's replicated state: the spine every neighbour receives. Its wire form is a

@@ -4,7 +4,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use super::WireResult;
-use crate::wire::{BodySpec, Shape, WireError};
+use crate::wire::{BodySpec, Motion, Shape, WireError};
 
 #[derive(Clone, Copy, Pod, Zeroable)]
 #[repr(C)]
@@ -82,6 +82,10 @@ pub(super) const MAX_SPECS: usize = u16::MAX as usize;
 
 const FLAG_CCD: u8 = 1;
 const FLAG_SIMULATED: u8 = 2;
+/// Moved by its owner through its velocity ([`Motion::Kinematic`]); never with
+/// `FLAG_SIMULATED`. A spec with neither is [`Motion::Still`], as frames from before the flag
+/// read.
+const FLAG_KINEMATIC: u8 = 4;
 
 pub(super) fn malformed(what: impl Into<String>) -> WireError {
     WireError::Malformed(what.into())
@@ -112,8 +116,12 @@ pub(super) fn spec_record(spec: &BodySpec) -> SpecRecord {
             radius,
         } => (2, [half_height, radius, 0.0]),
     };
-    let flags =
-        if spec.ccd { FLAG_CCD } else { 0 } | if spec.simulated { FLAG_SIMULATED } else { 0 };
+    let motion = match spec.motion {
+        Motion::Simulated => FLAG_SIMULATED,
+        Motion::Kinematic => FLAG_KINEMATIC,
+        Motion::Still => 0,
+    };
+    let flags = if spec.ccd { FLAG_CCD } else { 0 } | motion;
     SpecRecord {
         kind,
         flags,
@@ -136,11 +144,20 @@ pub(super) fn read_spec(record: &SpecRecord) -> WireResult<BodySpec> {
         },
         kind => return Err(malformed(format!("unknown shape kind {kind}"))),
     };
+    let motion = match (
+        record.flags & FLAG_SIMULATED != 0,
+        record.flags & FLAG_KINEMATIC != 0,
+    ) {
+        (true, false) => Motion::Simulated,
+        (false, true) => Motion::Kinematic,
+        (false, false) => Motion::Still,
+        (true, true) => return Err(malformed("a body both simulated and kinematic")),
+    };
     Ok(BodySpec {
         shape,
         density: f32::from_le_bytes(record.density),
         ccd: record.flags & FLAG_CCD != 0,
-        simulated: record.flags & FLAG_SIMULATED != 0,
+        motion,
     })
 }
 
