@@ -288,6 +288,26 @@ impl ClusterSim {
         Ok(())
     }
 
+    /// As [`Self::apply_op`] for a write issued `missed` steps ago (a push routed from
+    /// another cluster, applied a tick late): the motion those steps missed is added, so the
+    /// body is where one world that applied it on time has it (see `body::apply_op_late`).
+    pub fn apply_op_late(&mut self, op: &PhysicsOp, missed: u64) -> Result<(), SimError> {
+        validate::op(op)?;
+        let entry = self
+            .entities
+            .get(&op.target())
+            .ok_or(SimError::UnknownEntity(op.target()))?;
+        body::apply_op_late(
+            &mut self.world,
+            &mut self.stale,
+            entry,
+            op,
+            self.config.dt,
+            missed,
+        );
+        Ok(())
+    }
+
     /// The tick context and the physics handle for user code, borrowing the world together.
     /// Writes on entities owned by another cluster go to `router`.
     pub fn tick_scope<'a>(

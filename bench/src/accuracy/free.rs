@@ -150,45 +150,7 @@ pub fn run_free_trial_on_hosts(
     let plan = free_run_plan(scene_path, settings, transport, free, run_id, ticks);
     let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})?;
 
-    let reference_settings = |part: &str| PodSettings {
-        proxy_mode: settings.proxy_mode,
-        authority: settings.authority.mode(),
-        replication_interval: settings.replication_interval,
-        coupling: settings.coupling,
-        ..PodSettings::new(
-            format!(
-                "local?prefix=seam_free_{}_{run_id}_{part}_",
-                std::process::id()
-            ),
-            run_id,
-        )
-    };
-    let mut reference =
-        Pod::new(scene, &Part::Reference, &reference_settings("ref")).context("reference")?;
-    let mut floor = FloorRun::start(
-        scene,
-        &reference,
-        &reference_settings("floor"),
-        Basis::FinalTick,
-    )?;
-    // The reference states each recorded flip is judged against: (entity, tick).
-    let mut wanted: std::collections::HashMap<u64, Vec<EntityId>> = Default::default();
-    for flip in nodes.iter().flat_map(|n| &n.flips) {
-        wanted.entry(flip.tick).or_default().push(flip.entity);
-    }
-    let mut truth_at: TruthAt = Default::default();
-    for _ in 0..ticks {
-        reference.tick().context("reference")?;
-        floor.observe(&reference)?;
-        let sim = reference.cluster().sim();
-        if let Some(ids) = wanted.get(&sim.tick()) {
-            for &id in ids {
-                if let Some(state) = sim.state(id) {
-                    truth_at.insert((id, sim.tick()), (state.position, state.linvel));
-                }
-            }
-        }
-    }
+    let (reference, floor, truth_at) = run_reference(scene, settings, run_id, ticks, &nodes)?;
 
     let mut accuracy = Accuracy::default();
     let truth: IdMap<EntityId, [f32; 3]> = reference.simulated_positions().into_iter().collect();
@@ -253,6 +215,57 @@ pub fn run_free_trial_on_hosts(
         },
     };
     Ok((result, simulated_as))
+}
+
+/// The single world of a free-running trial, run for `ticks` beside its noise floor, with the
+/// states its pods' recorded flips are judged against.
+fn run_reference(
+    scene: &Scene,
+    settings: &TrialSettings,
+    run_id: &str,
+    ticks: u64,
+    nodes: &[NodeReport],
+) -> BenchResult<(Pod, FloorRun, TruthAt)> {
+    let reference_settings = |part: &str| PodSettings {
+        proxy_mode: settings.proxy_mode,
+        authority: settings.authority.mode(),
+        replication_interval: settings.replication_interval,
+        coupling: settings.coupling,
+        ..PodSettings::new(
+            format!(
+                "local?prefix=seam_free_{}_{run_id}_{part}_",
+                std::process::id()
+            ),
+            run_id,
+        )
+    };
+    let mut reference =
+        Pod::new(scene, &Part::Reference, &reference_settings("ref")).context("reference")?;
+    let mut floor = FloorRun::start(
+        scene,
+        &reference,
+        &reference_settings("floor"),
+        Basis::FinalTick,
+    )?;
+    // The reference states each recorded flip is judged against: (entity, tick).
+    let mut wanted: std::collections::HashMap<u64, Vec<EntityId>> = Default::default();
+    for flip in nodes.iter().flat_map(|n| &n.flips) {
+        wanted.entry(flip.tick).or_default().push(flip.entity);
+    }
+    let mut truth_at: TruthAt = Default::default();
+    for _ in 0..ticks {
+        reference.tick().context("reference")?;
+        floor.observe(&reference)?;
+        let sim = reference.cluster().sim();
+        if let Some(ids) = wanted.get(&sim.tick()) {
+            for &id in ids {
+                if let Some(state) = sim.state(id) {
+                    truth_at.insert((id, sim.tick()), (state.position, state.linvel));
+                }
+            }
+        }
+    }
+    Ok((reference, floor, truth_at))
 }
 
 /// The single world's position and velocity of a body at a tick.

@@ -322,11 +322,6 @@ pub fn run_recorded_trial(
         recorder.finish().map_err(recording)?;
     }
 
-    let ticks = scene.ticks.max(1);
-    let (ops, stats) = merged(&pods);
-    let mut p50s: Vec<u64> = tick_times.iter().map(|t| t.summary().p50_ns).collect();
-    p50s.sort_unstable();
-    let ops = ops.summary();
     Ok(TrialResult {
         scene: scene.name.clone(),
         transport: "lockstep".to_owned(),
@@ -335,29 +330,52 @@ pub fn run_recorded_trial(
         ticks: scene.ticks,
         accuracy: comparison.finish(|id| reference.entity_name(id)),
         floor: floor.finish(&reference),
-        cost: Cost {
-            tick_p50_us: p50s.get(p50s.len() / 2).copied().unwrap_or(0) as f64 / 1e3,
-            tick_sum_p50_us: p50s.iter().sum::<u64>() as f64 / 1e3,
-            tick_p99_us: tick_times
-                .iter()
-                .map(|t| t.summary().p99_ns)
-                .max()
-                .unwrap_or(0) as f64
-                / 1e3,
-            replication_bytes_per_tick: stats.replication_bytes as f64 / ticks as f64,
-            events_bytes_per_tick: stats.events_bytes as f64 / ticks as f64,
-            bytes_per_state: per_state(&stats),
-            proxies_mean: proxies_sum as f64 / ticks as f64,
-            ops: ops.ops,
-            ops_routed: stats.ops_routed,
-            op_delay_p50_ticks: ops.ticks.p50,
-            op_delay_max_ticks: ops.ticks.max,
-            reference_tick_p50_us: reference_time.summary().p50_ns as f64 / 1e3,
-            op_whole_p50_us: ops.whole.p50_ns as f64 / 1e3,
-            op_whole_p99_us: ops.whole.p99_ns as f64 / 1e3,
-            op_transport_p50_us: ops.transport.p50_ns as f64 / 1e3,
-        },
+        cost: lockstep_cost(
+            &pods,
+            &tick_times,
+            &reference_time,
+            proxies_sum,
+            scene.ticks,
+        ),
     })
+}
+
+/// What a lock-step trial of `ticks` ticks cost: the pods' tick times and counters, the
+/// single world's tick time, the proxies summed over ticks.
+fn lockstep_cost(
+    pods: &[Pod],
+    tick_times: &[LatencyRecorder],
+    reference_time: &LatencyRecorder,
+    proxies_sum: u64,
+    ticks: u64,
+) -> Cost {
+    let ticks = ticks.max(1);
+    let (ops, stats) = merged(pods);
+    let mut p50s: Vec<u64> = tick_times.iter().map(|t| t.summary().p50_ns).collect();
+    p50s.sort_unstable();
+    let ops = ops.summary();
+    Cost {
+        tick_p50_us: p50s.get(p50s.len() / 2).copied().unwrap_or(0) as f64 / 1e3,
+        tick_sum_p50_us: p50s.iter().sum::<u64>() as f64 / 1e3,
+        tick_p99_us: tick_times
+            .iter()
+            .map(|t| t.summary().p99_ns)
+            .max()
+            .unwrap_or(0) as f64
+            / 1e3,
+        replication_bytes_per_tick: stats.replication_bytes as f64 / ticks as f64,
+        events_bytes_per_tick: stats.events_bytes as f64 / ticks as f64,
+        bytes_per_state: per_state(&stats),
+        proxies_mean: proxies_sum as f64 / ticks as f64,
+        ops: ops.ops,
+        ops_routed: stats.ops_routed,
+        op_delay_p50_ticks: ops.ticks.p50,
+        op_delay_max_ticks: ops.ticks.max,
+        reference_tick_p50_us: reference_time.summary().p50_ns as f64 / 1e3,
+        op_whole_p50_us: ops.whole.p50_ns as f64 / 1e3,
+        op_whole_p99_us: ops.whole.p99_ns as f64 / 1e3,
+        op_transport_p50_us: ops.transport.p50_ns as f64 / 1e3,
+    }
 }
 
 /// Replication bytes per state published (0 when none was).

@@ -29,7 +29,12 @@ impl Owner<'_> {
         tick: u64,
     ) {
         self.close(name);
-        match self.sim.apply_op(&routed.op) {
+        // The steps its body took since the issuer's tick without it (a tick, in lock-step):
+        // their motion is added back, so it acts as if applied on the tick it was issued.
+        let missed = tick
+            .saturating_sub(routed.issued_tick)
+            .min(self.config.max_op_age_ticks);
+        match self.sim.apply_op_late(&routed.op, missed) {
             Ok(()) => {
                 let target = routed.op.target();
                 let timing = OpTiming {
