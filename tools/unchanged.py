@@ -37,6 +37,7 @@ def scenes():
     root = os.path.dirname(here)
     found = sorted(glob.glob(os.path.join(root, "bench/scenes/*.toml")))
     found += sorted(glob.glob(os.path.join(root, "bench/scenes/variants/*.toml")))
+    found += sorted(glob.glob(os.path.join(root, "bench/scenes/open/*.toml")))
     return found
 
 

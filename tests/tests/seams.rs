@@ -9,7 +9,7 @@
 
 use std::path::PathBuf;
 
-use seam_bench::accuracy::{Accuracy, TrialResult, TrialSettings, run_trial};
+use seam_bench::accuracy::{Accuracy, TrialSettings, beyond_floor, run_trial};
 use seam_bench::scene::{self, Scene};
 use seam_proxy::ProxyMode;
 
@@ -203,31 +203,6 @@ fn the_noise_floor_is_zero_where_calm_and_not_where_chaotic() {
     );
 }
 
-/// Where a split run stands against its noise floor, by issue 36's targets: position RMS at
-/// most max(1.5 × the floor's, 1 cm), the largest error at most max(1.5 × the floor's, 5 cm),
-/// the onset no earlier than 0.8 × the floor's (never, where the floor never departs). The
-/// figures that miss, in words.
-fn beyond_the_floor(r: &TrialResult) -> Vec<String> {
-    let (a, f) = (&r.accuracy, &r.floor);
-    let mut misses = Vec::new();
-    let rms = (1.5 * f.position_rms_m).max(0.01);
-    if a.position_rms_m > rms {
-        misses.push(format!("RMS {:.4} m > {rms:.4} m", a.position_rms_m));
-    }
-    let max = (1.5 * f.position_max_m).max(0.05);
-    if a.position_max_m > max {
-        misses.push(format!("max {:.4} m > {max:.4} m", a.position_max_m));
-    }
-    match (a.onset_tick, f.onset_tick) {
-        (Some(split), Some(floor)) if (split as f64) < 0.8 * floor as f64 => misses.push(format!(
-            "onset tick {split} before 0.8 × the floor's {floor}"
-        )),
-        (Some(split), None) => misses.push(format!("onset tick {split}, the floor's never")),
-        _ => {}
-    }
-    misses
-}
-
 /// A platform its owner moves kinematically carries a stack and a crate across two seams and
 /// back, handed from west to middle to east and back to middle: in either proxy mode the
 /// riders stay where one world has them, to its noise floor (before: proxied as a Fixed body
@@ -246,7 +221,7 @@ fn a_platform_carries_its_riders_across_the_seams() {
             ..TrialSettings::default()
         };
         let r = run_trial(scene, &settings, None).unwrap_or_else(|e| panic!("{mode:?}: {e}"));
-        let misses = beyond_the_floor(&r);
+        let misses = beyond_floor(&r.accuracy, &r.floor);
         assert!(misses.is_empty(), "{mode:?}: {misses:?}: {:?}", r.accuracy);
         assert!(
             r.accuracy.handoffs >= 4,

@@ -67,18 +67,19 @@ fn kinematic_proxies_with_ccd_find_every_hit_up_to_2000_mps_at_any_interval_up_t
     }
 }
 
-/// When the shooter keeps its shot, Fixed proxies with CCD lose hits on moving targets: a Fixed
-/// proxy stands where its entity was at the last update, so shots that graze a plate's edge
-/// differ (measured at 500 m/s: recall 0.923, precision 0.857).
+/// When the shooter keeps its shot, moving targets are found in the Fixed proxy mode too: the
+/// plates are kinematic bodies their owner moves, and such a body is proxied moving with its
+/// velocity whatever the mode (measured at 500 m/s: 26 hits of 26, none extra; before, a Fixed
+/// proxy stood where its plate was at the last update and shots grazing an edge differed:
+/// recall 0.923, precision 0.857).
 #[test]
-fn fixed_proxies_with_ccd_lose_hits_on_moving_targets() {
+fn moving_targets_are_proxied_moving_in_the_fixed_mode_too() {
     let a = gallery(ProxyMode::Fixed, 500.0, true).accuracy;
-    let recall = a.hit_recall.expect("the single world has hits");
-    assert!((0.85..0.96).contains(&recall), "recall {recall}: {a:?}");
-    let precision = a.hit_precision.expect("the split run has hits");
-    assert!(
-        (0.78..0.92).contains(&precision),
-        "precision {precision}: {a:?}"
+    assert!(a.hits_reference >= 20, "the gallery has hits: {a:?}");
+    assert_eq!(
+        (a.hit_recall, a.hit_precision),
+        (Some(1.0), Some(1.0)),
+        "{a:?}"
     );
 }
 
@@ -158,9 +159,10 @@ fn shots_across_two_seams_hit_up_to_the_width_per_frame() {
 /// speed every step overlaps and the single world has hits; in `gallery` from 35 m/s up no
 /// step lands on a plate and the single world has none (measured at 3–8.4 m/s: 11–33 hits; at
 /// 35–2 000 m/s: 0; between, phase decides: hits at 9, 10, 15, 30 m/s, none at 12, 20, 25).
-/// When the shooter keeps its shot, kinematic proxies tunnel exactly like the single world,
-/// and a Fixed proxy is swept and stops the shots the single world lets through. (With
-/// authority following the shot, the plates' owner simulates it, and tunnels like one world.)
+/// When the shooter keeps its shot, proxies of the plates tunnel exactly like the single world
+/// in either mode (the plates are kinematic, proxied moving in the Fixed mode too; before, a
+/// Fixed proxy was swept and stopped the shots the single world lets through). (With authority
+/// following the shot, the plates' owner simulates it, and tunnels like one world.)
 #[test]
 fn without_ccd_shots_pass_moving_plates_above_thickness_per_step() {
     for speed in [5.0, 8.0] {
@@ -179,10 +181,10 @@ fn without_ccd_shots_pass_moving_plates_above_thickness_per_step() {
             "{speed} m/s: every shot passes, in one world and split: {kinematic:?}"
         );
         let fixed = gallery(ProxyMode::Fixed, speed, false).accuracy;
-        assert_eq!(fixed.hits_reference, 0, "{speed} m/s: {fixed:?}");
-        assert!(
-            fixed.hits_split > 0,
-            "{speed} m/s: Fixed proxies stop shots: {fixed:?}"
+        assert_eq!(
+            (fixed.hits_reference, fixed.hits_split),
+            (0, 0),
+            "{speed} m/s: Fixed proxies of the moving plates let the shots pass too: {fixed:?}"
         );
     }
 }

@@ -24,6 +24,9 @@ pub struct Accuracy {
     /// The body with the largest position error (scene name, `#i` for a grid copy) and the
     /// tick it was largest at: where to look first.
     pub worst_body: Option<(String, u64)>,
+    /// The body with the largest judged hand-off jump (a projectile `shot:E.S`: event E of
+    /// the scene, its shot S) and the tick of the flip.
+    pub worst_handoff: Option<(String, u64)>,
     /// The first tick any of those bodies was [`ONSET_M`] or more from its single-world copy
     /// (`None`: none ever was). On a chaotic scene final errors say little (a second single
     /// world perturbed at round-off ends as far off); when the worlds first part says more.
@@ -110,6 +113,8 @@ pub struct Comparison {
     escaped: HashSet<EntityId>,
     /// The body with the largest position error so far, and when.
     worst: Option<(EntityId, u64)>,
+    /// The body with the largest judged hand-off jump so far, and the tick of its flip.
+    worst_jump: Option<(EntityId, u64)>,
     /// The entity whose every tick is printed (see [`Comparison::trace`]).
     traced: Option<EntityId>,
 }
@@ -218,6 +223,7 @@ impl Comparison {
             bounds: WorldBounds { floor, regions },
             escaped: HashSet::new(),
             worst: None,
+            worst_jump: None,
             tick: 0,
             pos_sq: 0.0,
             rot_sq: 0.0,
@@ -243,10 +249,18 @@ impl Comparison {
             .entities()
             .map(|(id, _)| id)
             .find(|&id| reference.entity_name(id) == name)
+            .or_else(|| {
+                name.starts_with("shot:")
+                    .then(|| reference.entity_id(name))
+                    .flatten()
+            })
             .ok_or_else(|| {
                 BenchError::flag(
                     "--trace",
-                    format!("no entity {name:?} in the scene (a grid copy is `name#i`)"),
+                    format!(
+                        "no entity {name:?} in the scene (a grid copy is `name#i`, a \
+                         projectile `shot:E.S`: event E, counted from 0, its shot S)"
+                    ),
                 )
             })?;
         self.traced = Some(id);
@@ -299,7 +313,7 @@ impl Comparison {
                     traced_seen = true;
                     self.print_traced(tick, Some((pod.name(), &state)), truth);
                 }
-                self.note_handoff(owner, &state, truth);
+                self.note_handoff(tick, owner, &state, truth);
                 self.last.insert(state.id, (owner, state, *truth));
                 // Projectiles count for hand-offs, not for position error: once one hits in one
                 // run and not in the other, it flies hundreds of metres apart, and the hit
@@ -356,7 +370,13 @@ impl Comparison {
 
     /// An authority flip of `state` to `owner` since the last tick: counted, and how far the
     /// new owner's motion over the tick departs from the reference's.
-    fn note_handoff(&mut self, owner: ClusterId, state: &EntityState, truth: &EntityState) {
+    fn note_handoff(
+        &mut self,
+        tick: u64,
+        owner: ClusterId,
+        state: &EntityState,
+        truth: &EntityState,
+    ) {
         let Some((was, before, truth_before)) = self.last.get(&state.id) else {
             return;
         };
@@ -372,10 +392,12 @@ impl Comparison {
         let moved_truth = sub(truth.position, truth_before.position);
         let sped = sub(state.linvel, before.linvel);
         let sped_truth = sub(truth.linvel, truth_before.linvel);
+        let jump = distance(moved, moved_truth);
+        if jump > self.acc.handoff_jump_position_m {
+            self.worst_jump = Some((state.id, tick));
+        }
         let acc = &mut self.acc;
-        acc.handoff_jump_position_m = acc
-            .handoff_jump_position_m
-            .max(distance(moved, moved_truth));
+        acc.handoff_jump_position_m = acc.handoff_jump_position_m.max(jump);
         acc.handoff_jump_velocity_mps =
             (acc.handoff_jump_velocity_mps).max(distance(sped, sped_truth));
     }
@@ -420,6 +442,7 @@ impl Comparison {
     /// The accuracy over everything observed; `name` names an entity of the scene.
     pub fn finish(mut self, name: impl Fn(EntityId) -> String) -> Accuracy {
         self.acc.worst_body = self.worst.map(|(id, tick)| (name(id), tick));
+        self.acc.worst_handoff = self.worst_jump.map(|(id, tick)| (name(id), tick));
         let n = self.samples.max(1) as f64;
         self.acc.position_rms_m = (self.pos_sq / n).sqrt();
         self.acc.rotation_rms_deg = (self.rot_sq / n).sqrt();

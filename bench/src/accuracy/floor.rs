@@ -143,3 +143,30 @@ pub(super) fn final_errors(
     }
     ((squares / samples.max(1) as f64).sqrt(), max)
 }
+
+/// How far a split run may be from one world, against its noise floor `floor`: position RMS at
+/// most max(1.5 × the floor's, 1 cm), the largest error at most max(1.5 × the floor's, 5 cm),
+/// the onset no earlier than 0.8 × the floor's (never, where the floor never departs). Returns
+/// the figures of `split` that miss, in words; none when it is at the floor.
+pub fn beyond_floor(split: &Accuracy, floor: &Accuracy) -> Vec<String> {
+    let mut misses = Vec::new();
+    let rms = (1.5 * floor.position_rms_m).max(0.01);
+    if split.position_rms_m > rms {
+        misses.push(format!(
+            "position RMS {:.4} m > {rms:.4} m",
+            split.position_rms_m
+        ));
+    }
+    let max = (1.5 * floor.position_max_m).max(0.05);
+    if split.position_max_m > max {
+        misses.push(format!("max {:.4} m > {max:.4} m", split.position_max_m));
+    }
+    match (split.onset_tick, floor.onset_tick) {
+        (Some(at), Some(floor)) if (at as f64) < 0.8 * floor as f64 => {
+            misses.push(format!("onset tick {at} < 0.8 × the floor's {floor}"))
+        }
+        (Some(at), None) => misses.push(format!("onset tick {at}, the floor's never")),
+        _ => {}
+    }
+    misses
+}

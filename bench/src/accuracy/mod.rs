@@ -28,7 +28,7 @@ use crate::node::AuthorityArgs;
 use crate::pod::{OpStages, Part, Pod, PodSettings};
 use crate::scene::{Event, Scene};
 pub use compare::{Accuracy, Comparison, ONSET_M, TRACKED_M};
-pub use floor::{Basis, FloorRun, PERTURBATION_M};
+pub use floor::{Basis, FloorRun, PERTURBATION_M, beyond_floor};
 pub use free::{FreeRunning, run_free_trial, run_free_trial_on_hosts};
 
 /// How long a lock-step tick may wait for a neighbour's frame before the trial fails.
@@ -186,7 +186,7 @@ pub struct TrialResult {
     pub accuracy: Accuracy,
     /// The noise floor: a second single world, bodies inserted in reverse order and every
     /// dynamic one moved [`PERTURBATION_M`], judged against the reference with the same
-    /// metrics (see [`floor`]). An error at the floor is the scene's chaos, not the split's.
+    /// metrics (see [`FloorRun`]). An error at the floor is the scene's chaos, not the split's.
     pub floor: Accuracy,
     /// Cost.
     pub cost: Cost,
@@ -412,16 +412,14 @@ fn trial_text(r: &TrialResult) -> String {
          ({} states), spread {}, projectiles {}, CCD {}\n\n\
          accuracy\n\
          \x20 position error       RMS {:.4} m, max {:.4} m (over {}){}\n\
-         \x20 noise floor          RMS {:.4} m, max {:.4} m: one world again, bodies inserted in \
-         reverse order and each dynamic one moved {} µm\n\
-         \x20 onset                {} (the floor's {}): first tick a body is {} cm off one world\n\
+         {}\
          \x20 orientation error    RMS {:.3}°, max {:.3}°\n\
          \x20 projectile hits      {} in the single world, {} split, {} matched: recall {}, \
          precision {}, mean tick offset {:.2}\n\
          \x20 momentum error       max {:.4} kg·m/s, mean {:.5} of Σm|v| (the single world's own \
          drift: {:.5})\n\
          \x20 hand-offs            {} ({} of bodies already off track, not judged): largest jump \
-         {:.5} m, {:.5} m/s\n\
+         {:.5} m, {:.5} m/s{}\n\
          \x20 ownership            {} body-ticks with two owners, {} lost, {} in transit \
          (hand-off read next tick); {} bodies escaped (fell through or flew off where the \
          single world's did not)\n\n\
@@ -459,12 +457,7 @@ fn trial_text(r: &TrialResult) -> String {
             .map_or(String::new(), |(name, tick)| format!(
                 ", largest: {name} at tick {tick}"
             )),
-        r.floor.position_rms_m,
-        r.floor.position_max_m,
-        PERTURBATION_M * 1e6,
-        onset_text(a.onset_tick, r.position_basis),
-        onset_text(r.floor.onset_tick, "every tick"),
-        ONSET_M * 100.0,
+        floor_text(r),
         a.rotation_rms_deg,
         a.rotation_max_deg,
         a.hits_reference,
@@ -480,6 +473,11 @@ fn trial_text(r: &TrialResult) -> String {
         a.handoffs_untracked,
         a.handoff_jump_position_m,
         a.handoff_jump_velocity_mps,
+        a.worst_handoff
+            .as_ref()
+            .map_or(String::new(), |(name, tick)| format!(
+                " ({name} at tick {tick})"
+            )),
         a.duplicate_owner_ticks,
         a.missing_entity_ticks,
         a.in_transit_ticks,
@@ -499,6 +497,37 @@ fn trial_text(r: &TrialResult) -> String {
         c.op_whole_p99_us,
         c.op_transport_p50_us,
     )
+}
+
+/// The noise floor's lines of a trial's text: the floor, the onsets, and whether the trial is
+/// at the floor.
+fn floor_text(r: &TrialResult) -> String {
+    format!(
+        "\x20 noise floor          RMS {:.4} m, max {:.4} m: one world again, bodies inserted in \
+         reverse order and each dynamic one moved {} µm\n\
+         \x20 onset                {} (the floor's {}): first tick a body is {} cm off one world\n\
+         \x20 against the floor    {}\n",
+        r.floor.position_rms_m,
+        r.floor.position_max_m,
+        PERTURBATION_M * 1e6,
+        onset_text(r.accuracy.onset_tick, r.position_basis),
+        onset_text(r.floor.onset_tick, "every tick"),
+        ONSET_M * 100.0,
+        floor_verdict(r),
+    )
+}
+
+/// Whether a trial is at its noise floor (see [`beyond_floor`]), in words. A free-running
+/// run's onset is not known, so only its final positions are judged.
+fn floor_verdict(r: &TrialResult) -> String {
+    let misses = beyond_floor(&r.accuracy, &r.floor);
+    if misses.is_empty() {
+        "at the floor (RMS ≤ max(1.5 × floor, 1 cm), max ≤ max(1.5 × floor, 5 cm), onset ≥ \
+         0.8 × floor's)"
+            .to_owned()
+    } else {
+        format!("beyond it: {}", misses.join("; "))
+    }
 }
 
 /// An onset tick in words: `never`, or not known for a run judged by its final tick.

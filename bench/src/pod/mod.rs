@@ -147,8 +147,8 @@ pub struct Pod {
     /// Projectiles this pod fired.
     fired: Vec<EntityId>,
     /// Every projectile of the scene fired so far, by any cluster (ids are derived, so every
-    /// pod knows them).
-    all_projectiles: HashSet<EntityId>,
+    /// pod knows them), with its name (see [`Pod::entity_name`]).
+    all_projectiles: HashMap<EntityId, String>,
     /// Contacts that started between a projectile and anything but a projectile, in this world
     /// (reported ones included), with the first tick each pair was seen.
     projectile_hits: BTreeMap<(EntityId, EntityId), u64>,
@@ -403,7 +403,7 @@ impl Pod {
             cluster_names,
             owned_at_start,
             fired: Vec::new(),
-            all_projectiles: HashSet::new(),
+            all_projectiles: HashMap::new(),
             projectile_hits: BTreeMap::new(),
             projectiles_seen: HashSet::new(),
         })
@@ -459,11 +459,22 @@ impl Pod {
                 };
             }
         }
-        id.to_string()
+        match self.all_projectiles.get(&id) {
+            Some(name) => name.clone(),
+            None => id.to_string(),
+        }
     }
 
-    /// The id of scene entity `name` (its first copy, for a grid entry).
+    /// The id of scene entity `name` (its first copy, for a grid entry), or of the projectile
+    /// `shot:E.S` (event E of the scene's list, counted from 0, its shot S), fired or not.
     pub fn entity_id(&self, name: &str) -> Option<EntityId> {
+        if let Some((event, shot)) = name
+            .strip_prefix("shot:")
+            .and_then(|rest| rest.split_once('.'))
+        {
+            let (event, shot) = (event.parse().ok()?, shot.parse().ok()?);
+            return Some(self.ids.event_entity(event, shot));
+        }
         self.entities.get(name).and_then(|ids| ids.first().copied())
     }
 
@@ -485,7 +496,7 @@ impl Pod {
 
     /// Whether `id` is a projectile of the scene fired so far.
     pub fn is_projectile(&self, id: EntityId) -> bool {
-        self.all_projectiles.contains(&id)
+        self.all_projectiles.contains_key(&id)
     }
 
     /// Position of every dynamic body this pod simulates, projectiles left out.
@@ -496,7 +507,7 @@ impl Pod {
             .filter(|(id, info)| {
                 info.owner == me
                     && info.role == BodyRole::Dynamic
-                    && !self.all_projectiles.contains(id)
+                    && !self.all_projectiles.contains_key(id)
             })
             .filter_map(|(id, _)| sim.state(id).map(|s| (id, s.position)))
             .collect()
@@ -652,8 +663,10 @@ impl Pod {
         for (at, index, shot) in firing {
             let event = &self.events[at].1;
             if matches!(event, Event::Projectile { .. }) {
-                self.all_projectiles
-                    .insert(self.ids.event_entity(index, shot));
+                self.all_projectiles.insert(
+                    self.ids.event_entity(index, shot),
+                    format!("shot:{index}.{shot}"),
+                );
             }
             match event {
                 Event::Projectile {
@@ -743,13 +756,13 @@ impl Pod {
             self.projectiles_seen.extend(
                 sim.entities()
                     .map(|(id, _)| id)
-                    .filter(|id| self.all_projectiles.contains(id)),
+                    .filter(|id| self.all_projectiles.contains_key(id)),
             );
         }
         for contact in self.cluster.sim().contacts() {
             let (a, b) = (contact.a, contact.b);
             if contact.started
-                && (self.all_projectiles.contains(&a) != self.all_projectiles.contains(&b))
+                && (self.all_projectiles.contains_key(&a) != self.all_projectiles.contains_key(&b))
             {
                 self.projectile_hits
                     .entry((a.min(b), a.max(b)))

@@ -229,7 +229,15 @@ position = [0, -0.5, 0]
 
 #[test]
 fn every_bundled_scene_loads() {
-    for name in ["crossfire", "grid", "gallery", "stacks", "corridor"] {
+    for name in [
+        "crossfire",
+        "grid",
+        "gallery",
+        "stacks",
+        "corridor",
+        "platform",
+        "open/corner",
+    ] {
         load(&scene_file(&format!("{name}.toml"))).unwrap_or_else(|e| panic!("{e}"));
     }
     load(&scene_file("variants/crossfire-owner-blasts.toml")).expect("the variant loads");

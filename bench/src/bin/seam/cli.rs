@@ -41,7 +41,11 @@ pub(crate) enum Command {
     /// precision, momentum error, hand-offs and their jumps, bodies with two owners or none,
     /// bodies that escaped (fell through or flew off where the single world's did not), and the
     /// split run's tick time (per cluster and summed, against the single world's), bytes per
-    /// tick, proxies and op delay. `--markdown` prints one table row per scene.
+    /// tick, proxies and op delay. Beside the error stands the noise floor: the single world
+    /// run again with its bodies inserted in reverse order and each dynamic one moved 1 µm,
+    /// judged the same way, and for both the onset (the first tick a body is 2 cm off); the
+    /// "against the floor" line says whether the split is within it. `--markdown` prints one
+    /// table row per scene.
     Compare(compare::CompareArgs),
     /// Sweep settings against the single-world reference: `sweep.csv` and charts.
     ///

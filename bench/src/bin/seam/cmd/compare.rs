@@ -18,8 +18,9 @@ pub(crate) struct CompareArgs {
     #[command(flatten)]
     knobs: Knobs,
     /// Print, on stderr after every tick, where this entity (its scene name; `name#i` for
-    /// a grid copy, as the "largest" line names it) is in the split run and in the single
-    /// world, which cluster simulates it, and how far apart the two are.
+    /// a grid copy, as the "largest" line names it; `shot:E.S` for shot S of the scene's
+    /// event E, counted from 0, as the hand-offs line names it) is in the split run and in
+    /// the single world, which cluster simulates it, and how far apart the two are.
     #[arg(long, value_name = "NAME")]
     trace: Option<String>,
     /// Record the split run and the single world, tick by tick, into FILE (one scene
