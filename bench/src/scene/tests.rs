@@ -236,7 +236,10 @@ fn every_bundled_scene_loads() {
         "stacks",
         "corridor",
         "platform",
+        "elevator",
+        "dominoes",
         "open/corner",
+        "open/ramp",
     ] {
         load(&scene_file(&format!("{name}.toml"))).unwrap_or_else(|e| panic!("{e}"));
     }
