@@ -316,13 +316,7 @@ fn draw<DB: DrawingBackend>(
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x - 10, y), (x + 10, y)], green.stroke_width(2))
                 });
-            chart
-                .configure_series_labels()
-                .label_font(("sans-serif", 14))
-                .background_style(WHITE.mix(0.9))
-                .border_style(BLACK)
-                .draw()
-                .map_err(failed)?;
+            crate::sweep::charts::draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         }
     }
     area.present().map_err(failed)

@@ -200,6 +200,9 @@ pub(crate) fn apply_op_late(
     let before = &world.bodies[entry.body];
     let (linvel, angvel) = (before.linvel(), before.angvel());
     apply_op(world, stale, entry, op);
+    if missed == 0 || !world.bodies[entry.body].is_dynamic() {
+        return;
+    }
     // A body touching something would have met it with its new velocity in the missed steps;
     // moved on without those contacts it would be driven into it (piles blown apart ended
     // further from one world so): only a body in free flight catches up.
@@ -207,10 +210,10 @@ pub(crate) fn apply_op_late(
         .narrow_phase
         .contact_pairs_with(entry.collider)
         .any(|pair| pair.has_any_active_contact());
-    let body = &mut world.bodies[entry.body];
-    if missed == 0 || !body.is_dynamic() || touching {
+    if touching {
         return;
     }
+    let body = &mut world.bodies[entry.body];
     let span = dt * missed as f32;
     let (moved, turned) = match *op {
         // Its change of velocity comes in the step, by F/m·dt.

@@ -624,7 +624,7 @@ impl Scene {
             ),
             Event::Handoff { entity, to, .. } => {
                 self.known_cluster(text, "to", to)?;
-                return self.check_handoff(text, entity, entity_names);
+                return self.check_owned_entity(text, entity, entity_names);
             }
             Event::Steer {
                 entity, velocity, ..
@@ -635,7 +635,7 @@ impl Scene {
                         "steer: `velocity` finite".into(),
                     ));
                 }
-                return self.check_handoff(text, entity, entity_names);
+                return self.check_owned_entity(text, entity, entity_names);
             }
         };
         self.known_cluster(text, "by", by)?;
@@ -645,8 +645,8 @@ impl Scene {
         Ok(())
     }
 
-    /// A hand-off's or steer's entity: one of the scene's, and not scenery.
-    fn check_handoff(
+    /// The entity a hand-off or a steer names: one of the scene's, and not scenery.
+    fn check_owned_entity(
         &self,
         text: &str,
         entity: &str,

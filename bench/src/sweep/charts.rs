@@ -140,8 +140,8 @@ fn failed<E: std::fmt::Display>(e: E) -> BenchError {
     }
 }
 
-/// The legend both charts draw, at `position`.
-fn draw_legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+/// The legend every chart draws, at `position` (`seam network`'s too).
+pub(crate) fn draw_legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
     chart: &mut ChartContext<'a, DB, CT>,
     position: SeriesLabelPosition,
 ) -> BenchResult<()> {

@@ -34,15 +34,13 @@ impl Proxies {
         config: &ClusterConfig,
         state: &EntityState,
     ) -> Result<(), SimError> {
-        let coupled = sim
-            .info(state.id)
-            .is_some_and(|info| info.role == BodyRole::Dynamic);
-        if coupled {
+        let now = sim.info(state.id).map(|info| info.role);
+        if now == Some(BodyRole::Dynamic) {
             // Simulated here for now (see `seam_sim::coupling`): set to what its owner says.
             return sim.apply_state(state);
         }
         let role = config.proxy_mode.role_for(state.body.motion);
-        if sim.info(state.id).is_some_and(|info| info.role != role) {
+        if now.is_some_and(|now| now != role) {
             // Its owner moves it another way than before (a platform made dynamic, say).
             sim.set_role(state.id, role)?;
         }
