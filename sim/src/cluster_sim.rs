@@ -247,15 +247,30 @@ impl ClusterSim {
         entry.info.owner = state.cluster_id;
         entry.info.epoch = state.epoch;
         let owned = state.cluster_id == self.config.cluster_id;
+        let behind = coupling::ticks_behind(self.tick, state.tick);
+        // A coupled proxy is stepped from here with this world's bodies: its pose is taken to
+        // this world's tick (a staggered neighbour's frame can be from the step this world is
+        // about to take).
+        let coupled = !owned && entry.info.role == BodyRole::Dynamic;
+        let state = if coupled {
+            coupling::carried(state, behind, self.config.dt)
+        } else {
+            *state
+        };
         body::apply_state(
             &mut self.world,
             &mut self.stale,
             entry,
-            state,
+            &state,
             self.config.dt,
             owned,
         );
-        entry.posed_tick = self.tick;
+        // A Fixed proxy stands where the state put it: as of the state's tick.
+        entry.posed_tick = if entry.info.role == BodyRole::Fixed {
+            self.tick.saturating_add_signed(-behind)
+        } else {
+            self.tick
+        };
         Ok(())
     }
 

@@ -32,7 +32,7 @@ use rapier3d::prelude::*;
 use crate::body::Entry;
 use crate::box_grid::BoxGrid;
 use crate::entity::BodyRole;
-use crate::wire::{ClusterId, EntityId, IdMap, Motion};
+use crate::wire::{ClusterId, EntityId, EntityState, IdMap, Motion};
 
 /// How much closer than touching two swept boxes must come for a proxy to be coupled, metres:
 /// room for Rapier's contact prediction and for a step's worth of gravity.
@@ -80,8 +80,41 @@ fn lead(e: &Entry, now: u64, dt: f32) -> Vector {
     if e.info.role != BodyRole::Fixed {
         return Vector::ZERO;
     }
-    let ticks = now.saturating_sub(e.posed_tick).min(MAX_LEAD_TICKS);
-    Vector::from_array(e.replicated.0) * (ticks as f32 * dt)
+    Vector::from_array(e.replicated.0) * (ticks_behind(now, e.posed_tick) as f32 * dt)
+}
+
+/// How many ticks a state of tick `state_tick` is behind a world at tick `now` (negative: ahead),
+/// as far as it can be carried: a state one tick ahead is a staggered neighbour's of the step
+/// this world is about to take, and one is carried forward at most [`MAX_LEAD_TICKS`]. A state
+/// further off than either is from a pod that counts its ticks from another start (game
+/// servers need not share a tick count), and is taken as of `now`: 0.
+pub(crate) fn ticks_behind(now: u64, state_tick: u64) -> i64 {
+    let behind = now as i64 - state_tick as i64;
+    if (-1..=MAX_LEAD_TICKS as i64).contains(&behind) {
+        behind
+    } else if behind > MAX_LEAD_TICKS as i64 && behind <= 4 * MAX_LEAD_TICKS as i64 {
+        MAX_LEAD_TICKS as i64
+    } else {
+        0
+    }
+}
+
+/// `state`, `behind` ticks (of `dt`) old, carried to now along its replicated velocities
+/// (back, for a state ahead).
+pub(crate) fn carried(state: &EntityState, behind: i64, dt: f32) -> EntityState {
+    if behind == 0 {
+        return *state;
+    }
+    let shift = behind as f32 * dt;
+    let [x, y, z, w] = state.rotation;
+    let turn = Rotation::from_scaled_axis(Vector::from_array(state.angvel) * shift);
+    EntityState {
+        position: std::array::from_fn(|k| state.position[k] + state.linvel[k] * shift),
+        rotation: (turn * Rotation::from_xyzw(x, y, z, w))
+            .normalize()
+            .to_array(),
+        ..*state
+    }
 }
 
 /// Makes the proxies that bodies simulated here may touch this step dynamic, and the others

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+use seam_bench::accuracy::{self, AgainstOneWorld, JudgedRun};
 use seam_bench::node::AuthorityArgs;
 use seam_bench::run::{self, PodSummary, RunPlan, RunReport};
 use seam_tests::TestContext;
@@ -38,15 +39,30 @@ fn run_pods(
     authority: AuthorityArgs,
     quantize: bool,
 ) -> RunReport {
+    run_judged(ctx, scene_name, ticks, authority, quantize).0
+}
+
+/// As [`run_pods`], with the run judged against one world as `seam run` judges it.
+fn run_judged(
+    ctx: &TestContext,
+    scene_name: &str,
+    ticks: u64,
+    authority: AuthorityArgs,
+    quantize: bool,
+) -> (RunReport, AgainstOneWorld) {
     // Faster than real time, so the test takes seconds; the scene's events all fall within
     // `ticks`.
     let plan = RunPlan {
         authority,
         quantize,
+        track_flips: true,
         ..plan(scene_name, ctx.url(), 300.0, ticks)
     };
-    run::run(&plan, &AtomicBool::new(false), |_| {})
-        .unwrap_or_else(|e| panic!("seam run {scene_name} on {}: {e}", ctx.url()))
+    let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})
+        .unwrap_or_else(|e| panic!("seam run {scene_name} on {}: {e}", ctx.url()));
+    let against = AgainstOneWorld::judge(&plan, &nodes)
+        .unwrap_or_else(|e| panic!("judging {scene_name} against one world: {e}"));
+    (report, against)
 }
 
 fn pod<'a>(report: &'a RunReport, name: &str) -> &'a PodSummary {
@@ -101,13 +117,40 @@ fn assert_crossfire_holds(report: &RunReport) -> String {
 
 /// The main job with default settings: authority follows entities, so west's projectile is
 /// handed to east as it crosses the seam and hits east's crates in east's own world.
+/// The run is judged against one world, beside that world's noise floor: every body the
+/// pods ended with is compared, crossfire's volleys hit in both, and the projectile's
+/// hand-off is judged.
 fn crossfire_pods_cross_the_seam(ctx: &TestContext) {
-    let report = run_pods(ctx, "crossfire", 360, AuthorityArgs::default(), false);
+    let (report, against) = run_judged(ctx, "crossfire", 360, AuthorityArgs::default(), false);
     let text = assert_crossfire_holds(&report);
     let west = pod(&report, "west");
     assert!(
         west.cluster_stats.handoffs_by_policy >= 1,
         "the projectile followed into east\n{text}"
+    );
+    let judged = accuracy::judged_document(&JudgedRun {
+        run: report,
+        against_one_world: Some(against.clone()),
+    })
+    .text();
+    let (a, floor) = (&against.accuracy, &against.floor);
+    assert!(judged.contains("noise floor"), "{judged}");
+    // Crossfire is chaotic: one world perturbed at round-off ends metres from itself.
+    assert!(floor.position_rms_m > 0.1, "{judged}");
+    assert!(a.position_rms_m.is_finite(), "{judged}");
+    assert_eq!(
+        a.missing_entity_ticks, 0,
+        "every body ended somewhere\n{judged}"
+    );
+    assert!(a.hits_reference > 0 && a.hits_split > 0, "{judged}");
+    assert!(
+        a.handoffs >= 1,
+        "the projectile's hand-off judged\n{judged}"
+    );
+    assert_eq!(
+        against.beyond_floor.is_empty(),
+        judged.contains("at the floor"),
+        "{judged}"
     );
 }
 

@@ -102,6 +102,19 @@ fn judge_final_positions(
         truth.keys().filter(|id| !owners.contains_key(*id)).count() as u64;
 }
 
+/// The body that ended farthest from its single-world copy (`truth`), if any is off at all.
+fn worst_ended(nodes: &[NodeReport], truth: &IdMap<EntityId, [f32; 3]>) -> Option<EntityId> {
+    let mut worst: Option<(EntityId, f32)> = None;
+    for &(id, position) in nodes.iter().flat_map(|n| &n.final_positions) {
+        let Some(t) = truth.get(&id) else { continue };
+        let error = (0..3).map(|k| (position[k] - t[k]).powi(2)).sum::<f32>();
+        if error > 0.0 && worst.is_none_or(|(_, w)| error > w) {
+            worst = Some((id, error));
+        }
+    }
+    worst.map(|(id, _)| id)
+}
+
 /// The pods' projectile hits against the reference's: recall, precision, tick offsets.
 fn judge_hits(
     nodes: &[NodeReport],
@@ -149,15 +162,7 @@ pub fn run_free_trial_on_hosts(
     let ticks = settings.ticks.unwrap_or(scene.ticks);
     let plan = free_run_plan(scene_path, settings, transport, free, run_id, ticks);
     let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})?;
-
-    let (reference, floor, truth_at) = run_reference(scene, settings, run_id, ticks, &nodes)?;
-
-    let mut accuracy = Accuracy::default();
-    let truth: IdMap<EntityId, [f32; 3]> = reference.simulated_positions().into_iter().collect();
-    judge_final_positions(&nodes, &truth, &mut accuracy);
-
-    judge_hits(&nodes, reference.projectile_hits(), &mut accuracy);
-    judge_flips(&nodes, &truth_at, &mut accuracy);
+    let (accuracy, floor) = judge_pods(scene, settings, run_id, ticks, &nodes)?;
 
     let ran = report
         .pods
@@ -183,7 +188,7 @@ pub fn run_free_trial_on_hosts(
         },
         ticks,
         accuracy,
-        floor: floor.finish(&reference),
+        floor,
         cost: Cost {
             tick_p50_us: p50s.get(p50s.len() / 2).copied().unwrap_or(0) as f64 / 1e3,
             tick_sum_p50_us: p50s.iter().sum::<u64>() as f64 / 1e3,
@@ -215,6 +220,26 @@ pub fn run_free_trial_on_hosts(
         },
     };
     Ok((result, simulated_as))
+}
+
+/// What free-running pods' reports (`nodes`, after `ticks` ticks of `scene` with `settings`)
+/// show against one world run here for as many ticks, and that world's noise floor: where
+/// every body ended, projectile hits, hand-offs, bodies owned twice or by nobody.
+pub(super) fn judge_pods(
+    scene: &Scene,
+    settings: &TrialSettings,
+    run_id: &str,
+    ticks: u64,
+    nodes: &[NodeReport],
+) -> BenchResult<(Accuracy, Accuracy)> {
+    let (reference, floor, truth_at) = run_reference(scene, settings, run_id, ticks, nodes)?;
+    let mut accuracy = Accuracy::default();
+    let truth: IdMap<EntityId, [f32; 3]> = reference.simulated_positions().into_iter().collect();
+    judge_final_positions(nodes, &truth, &mut accuracy);
+    accuracy.worst_body = worst_ended(nodes, &truth).map(|id| (reference.entity_name(id), ticks));
+    judge_hits(nodes, reference.projectile_hits(), &mut accuracy);
+    judge_flips(nodes, &truth_at, &mut accuracy);
+    Ok((accuracy, floor.finish(&reference)))
 }
 
 /// The single world of a free-running trial, run for `ticks` beside its noise floor, with the

@@ -13,6 +13,7 @@
 mod compare;
 mod floor;
 mod free;
+mod one_world;
 
 use crate::error::{BenchError, BenchResult, Context};
 use crate::record::{EntityTable, PodRecorder};
@@ -30,6 +31,7 @@ use crate::scene::{Event, Scene};
 pub use compare::{Accuracy, Comparison, ONSET_M, TRACKED_M};
 pub use floor::{Basis, FloorRun, PERTURBATION_M, beyond_floor};
 pub use free::{FreeRunning, run_free_trial, run_free_trial_on_hosts};
+pub use one_world::{AgainstOneWorld, JudgedRun, judged_document};
 
 /// How long a lock-step tick may wait for a neighbour's frame before the trial fails.
 const LOCKSTEP_TIMEOUT: Duration = Duration::from_secs(10);
@@ -387,7 +389,7 @@ pub(crate) fn per_state(stats: &seam_proxy::ClusterStats) -> f64 {
     }
 }
 
-fn ratio(value: Option<f64>) -> String {
+pub(super) fn ratio(value: Option<f64>) -> String {
     value.map_or("-".to_owned(), |v| format!("{v:.3}"))
 }
 

@@ -5,10 +5,11 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
+use seam_bench::accuracy::{self, AgainstOneWorld, JudgedRun};
 use seam_bench::console::Progress;
 use seam_bench::error::{BenchError, BenchResult};
 use seam_bench::inspect::{LiveRecording, Served, Server};
-use seam_bench::node::{self, ModelArgs};
+use seam_bench::node::{self, ModelArgs, NodeReport};
 use seam_bench::record::PartsDir;
 use seam_bench::relay::Delay;
 use seam_bench::run::{self, HostsPlan, RunPlan, RunReport};
@@ -43,6 +44,13 @@ pub(crate) struct RunArgs {
     /// so co-hosted pods do not all want a core at once).
     #[arg(long)]
     in_phase: bool,
+    /// Do not judge the run against one world. By default, once the pods are done, the same
+    /// scene runs here for as many ticks as one world and again as its noise floor (bodies
+    /// inserted in reverse order, each dynamic one moved 1 µm), and the report says how far
+    /// the pods' bodies ended from it, against the floor, with projectile hits and hand-off
+    /// jumps. Skip it on a scene so large that two more worlds of it cost too long.
+    #[arg(long)]
+    no_judge: bool,
     #[command(flatten)]
     record: RecordArgs,
     #[command(flatten)]
@@ -110,6 +118,8 @@ impl RunArgs {
             keyframe_ticks: model.keyframe_ticks,
             layers: self.layers,
             in_phase: self.in_phase,
+            // The flips are what its hand-offs are judged by.
+            track_flips: !self.no_judge,
             hosts: HostsPlan {
                 count: hosts.hosts,
                 redis: expand_transport(&hosts.redis),
@@ -127,8 +137,9 @@ impl RunArgs {
 
 /// Runs the pods, prints the report, and fails if an entity was lost or owned twice.
 pub(crate) fn main(args: &RunArgs) -> BenchResult<()> {
-    let report = run_scene(args.plan(), &args.record)?;
-    args.output.report(&report, run::document);
+    let judged = run_scene(args.plan(), &args.record, !args.no_judge)?;
+    args.output.report(&judged, accuracy::judged_document);
+    let report = &judged.run;
     if report.ownership.holds() {
         Ok(())
     } else {
@@ -142,7 +153,7 @@ pub(crate) fn main(args: &RunArgs) -> BenchResult<()> {
 
 /// This executable starts the pods; the recording, if asked for, is kept even when the run
 /// fails.
-fn run_scene(mut plan: RunPlan, record: &RecordArgs) -> BenchResult<RunReport> {
+fn run_scene(mut plan: RunPlan, record: &RecordArgs, judge: bool) -> BenchResult<JudgedRun> {
     plan.node_command = node_command()?;
     let stop = node::stop_flag()?;
     eprintln!(
@@ -165,7 +176,7 @@ fn run_scene(mut plan: RunPlan, record: &RecordArgs) -> BenchResult<RunReport> {
         }
         _ => None,
     };
-    let report = run_pods_shown(&plan, &stop);
+    let ran = run_pods_shown(&plan, &stop);
     if let (Some((live, _server)), Some(parts)) = (&live, &parts) {
         live.finish(&parts.dir);
         if let Some(problem) = live.problem() {
@@ -179,13 +190,30 @@ fn run_scene(mut plan: RunPlan, record: &RecordArgs) -> BenchResult<RunReport> {
             Err(e) => eprintln!("seam run: cannot write {}: {e}", out.display()),
         }
     }
-    report
+    let (report, nodes) = ran?;
+    let stopped = stop.load(std::sync::atomic::Ordering::Relaxed);
+    if judge && stopped {
+        eprintln!("seam run: stopped early, so not judged against one world");
+    }
+    let against_one_world = if judge && !stopped {
+        eprintln!(
+            "seam run: judging against one world (the scene run here twice: one world and \
+             its noise floor)"
+        );
+        Some(AgainstOneWorld::judge(&plan, &nodes)?)
+    } else {
+        None
+    };
+    Ok(JudgedRun {
+        run: report,
+        against_one_world,
+    })
 }
 
 /// The pods, with progress on the console.
-fn run_pods_shown(plan: &RunPlan, stop: &AtomicBool) -> BenchResult<RunReport> {
+fn run_pods_shown(plan: &RunPlan, stop: &AtomicBool) -> BenchResult<(RunReport, Vec<NodeReport>)> {
     let shown = Progress::new(None);
-    run::run(plan, stop, |progress| {
+    run::run_pods(plan, stop, |progress| {
         let pods: Vec<String> = progress
             .pods
             .iter()
