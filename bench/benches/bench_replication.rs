@@ -23,7 +23,7 @@ use std::time::Duration;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use seam_sim::wire::{
     self, BodySpec, ClusterId, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp,
-    ReplicationEncoder, ReplicationFrame, ReplicationView, RoutedOp, Shape, StateEncoding,
+    ReplicationEncoder, ReplicationFrame, ReplicationView, RoutedOp, Shape, Stage, StateEncoding,
 };
 use seam_sim::{BodyRole, ClusterSim, SimConfig};
 use seam_transport::Transport;
@@ -34,6 +34,7 @@ fn events(batch: usize) -> PhysicsEventsFrame {
     PhysicsEventsFrame {
         from: ClusterId::from_u128(1),
         tick: 7,
+        stage: Stage::AfterStep,
         published_ns: 1_000_000_000,
         ops: (0..batch)
             .map(|i| RoutedOp {
@@ -51,6 +52,7 @@ fn events(batch: usize) -> PhysicsEventsFrame {
         acks: Vec::new(),
         contacts: Vec::new(),
         impulses: Vec::new(),
+        own_writes: Vec::new(),
         leaving: false,
     }
 }

@@ -46,8 +46,8 @@ pub struct NetworkPlan {
     pub jitter_ms: f64,
     /// Ticks per second of the pods.
     pub rate: f64,
-    /// Tick the pods in phase instead of staggered.
-    pub in_phase: bool,
+    /// Stagger the pods over the period instead of ticking them in phase.
+    pub stagger: bool,
     /// The Redis server between hosts.
     pub redis: String,
     /// The command that starts a pod (`[seam, "node"]`).
@@ -66,7 +66,7 @@ pub fn run(
             let free = FreeRunning {
                 rate: plan.rate,
                 node_command: plan.node_command.clone(),
-                in_phase: plan.in_phase,
+                stagger: plan.stagger,
                 hosts: HostsPlan {
                     count: Some(2),
                     redis: plan.redis.clone(),

@@ -121,6 +121,22 @@ pub struct ClusterConfig {
     /// this bounds how long a lost frame can leave a proxy wrong. 0 or 1: every frame is a
     /// keyframe.
     pub keyframe_ticks: u64,
+    /// Routed ops act in the step they were written in: after game code, each cluster sends
+    /// every neighbour an events frame before its step (the *exchange*) with the ops it
+    /// wrote on that neighbour's entities and the impulses it gave its own bodies, and applies
+    /// the neighbours' before stepping (see `crate::routing`). In lock-step it waits for every
+    /// neighbour's; free-running, for each live neighbour ticking in step with it, at most
+    /// `neighbour_wait_ticks`. Every cluster of a world must agree on it. `false`: ops go
+    /// after the step and land a tick later, caught up only for bodies touching nothing.
+    pub exchange: bool,
+    /// Free-running with the exchange, how long a tick waits for a live neighbour ticking in
+    /// step with this cluster, in ticks of `dt` (default 0.25: 4.2 ms at 60 Hz): at its start
+    /// for the neighbour's frames of the step before, and before the step for its exchange
+    /// frame. Pods ticking in phase (as `seam run` starts them) then see each other's steps as
+    /// lock-step clusters do; a neighbour later than this is not waited for (counted in
+    /// `ClusterStats::steps_missed` and `exchanges_missed`), and what it sends is used when it
+    /// comes. 0: never wait.
+    pub neighbour_wait_ticks: f32,
 }
 
 /// The default [`ClusterConfig::keyframe_ticks`]: half a second at 60 Hz.
@@ -153,6 +169,8 @@ impl ClusterConfig {
             coupling: true,
             state_encoding: StateEncoding::Exact,
             keyframe_ticks: DEFAULT_KEYFRAME_TICKS,
+            exchange: true,
+            neighbour_wait_ticks: 0.25,
         }
     }
 

@@ -63,6 +63,10 @@ pub enum ClusterError {
     /// A bridge thread could not start, or ended without an error of its own.
     #[error("bridge: {0}")]
     BridgeThread(&'static str),
+    /// The two halves of a lock-step tick called out of order (see
+    /// [`Cluster::begin_lockstep`](crate::Cluster::begin_lockstep)).
+    #[error("lock-step tick out of order: {0}")]
+    TickOrder(&'static str),
     /// A free-running schedule that cannot be kept (see `Schedule::new`).
     #[error("schedule: {0}")]
     Schedule(String),

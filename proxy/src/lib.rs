@@ -48,18 +48,27 @@
 //! 3. **User code** runs with the tick context and the physics handle. Reads and queries use the
 //!    local world, proxies included; a write on an entity another cluster owns is queued for
 //!    that owner.
-//! 4. **Routed ops** received in step 1 are applied, then the world **steps**.
-//! 5. **Publish**: one replication frame with the states of the entities this cluster owns
-//!    (every `replication_interval` ticks), and one physics-events frame per neighbour with the
-//!    ops queued for it and the contacts between this cluster's bodies and its proxies.
+//! 4. **Exchange**: one physics-events frame per neighbour before the step, with the ops
+//!    queued for it and the impulses game code gave this cluster's own bodies; the
+//!    neighbours' are waited for (`ClusterConfig::exchange`).
+//! 5. **Routed ops** received are applied — the neighbours' of this very tick among them —,
+//!    then the world **steps**.
+//! 6. **Publish**: one replication frame with the states of the entities this cluster owns
+//!    (every `replication_interval` ticks), and one physics-events frame per neighbour with
+//!    answers, ops that missed the exchange and the contacts between this cluster's bodies
+//!    and its proxies.
 //!
 //! Every frame is tagged with its sender's step count. [`Cluster::tick`] uses whatever has
 //! arrived (free-running pods, which sleep in [`Cluster::wait`] between ticks): every events
 //! frame, and of each neighbour's replication frames the newest, with any hand-off an older one
 //! carried (the old owner stops listing an entity once handed, so dropping that frame would
-//! lose the entity); [`Cluster::tick_lockstep`] and [`lockstep_round`] wait, by
-//! counting frames, for exactly the neighbours' frames of the same step count and keep newer
-//! ones for later, so a run gives the same result on every transport.
+//! lose the entity) — having waited, at most `neighbour_wait_ticks`, for the frames of
+//! neighbours ticking in step with it; [`Cluster::tick_lockstep`] and [`lockstep_round`] wait,
+//! by counting frames, for exactly the neighbours' frames of the same step count and keep
+//! newer ones for later, so a run gives the same result on every transport. One thread
+//! stepping several clusters in lock-step runs each tick in two halves
+//! ([`Cluster::begin_lockstep`] for all, then [`Cluster::finish_lockstep`]), so that each has
+//! its neighbours' exchanged ops before it steps.
 //!
 //! # Proxy lifecycle
 //!
@@ -97,9 +106,11 @@
 //!
 //! # Routing
 //!
-//! A write on a remote-owned entity goes in the next physics-events frame to the owner this
-//! cluster knows, which applies it just before its next step. Writes are validated before
-//! they are queued (NaN, infinity and unknown entities are refused at the caller).
+//! A write on a remote-owned entity goes, in this tick's exchange, to the owner this cluster
+//! knows, which applies it just before its step of the same tick — as one world would (an
+//! op that misses the exchange is applied at the owner's next step, the motion a body in free
+//! flight missed added back). Writes are validated before they are queued (NaN, infinity and
+//! unknown entities are refused at the caller).
 //!
 //! **Delivery: at least once, applied once** (see `delivery`). Each op is named by its issuer
 //! and a number from the issuer's counter (started at the wall clock's microseconds, so a
@@ -227,8 +238,9 @@
 //! # Layout
 //!
 //! - [`prelude`] — what game code imports.
-//! - `cluster` — [`Cluster`]: the pipeline; `run_tick` lists the phases a tick runs, each a
-//!   call on a part that owns its state:
+//! - `cluster` — [`Cluster`]: the pipeline; `run_until_exchange` and `finish_tick` list the
+//!   phases a tick runs (the exchange of routed ops between them), each a call on a part that
+//!   owns its state:
 //!   - `inbox` — frames in, by sender and tick (for lock-step);
 //!   - `neighbours` — who is alive ([`NeighbourStatus`]), and custody of the dead's entities;
 //!   - `replication` — frames out ([`extent`]-based interest, keyframes) and the world

@@ -182,6 +182,7 @@ impl PhysicsHandle<'_> {
             .ok_or(SimError::UnknownEntity(op.target()))?;
         if entry.info.owner == self.cluster_id {
             body::apply_op(self.world, self.stale, entry, &op);
+            self.router.applied(&op);
             Ok(WriteOutcome::Applied)
         } else if entry.info.owner == ClusterId::SCENERY {
             Err(SimError::Scenery(op.target()))

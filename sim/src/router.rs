@@ -9,6 +9,12 @@ use crate::wire::{ClusterId, PhysicsOp};
 pub trait WriteRouter {
     /// Takes `op`, aimed at an entity whose authority is `owner`.
     fn route(&mut self, owner: ClusterId, op: PhysicsOp) -> Result<(), SimError>;
+
+    /// Notes `op`, just applied to a body this cluster owns (the proxy layer tells its
+    /// neighbours, whose proxies of the body should move with it). Does nothing by default.
+    fn applied(&mut self, op: &PhysicsOp) {
+        let _ = op;
+    }
 }
 
 /// A router for a world that stands alone: every write on a remote-owned entity is refused with

@@ -3,7 +3,7 @@
 use seam_sim::wire::{
     self, BodySpec, ClusterId, ContactReport, DeltaBase, EntityId, EntityState, OpAck,
     PhysicsEventsFrame, PhysicsOp, ReplicationEncoder, ReplicationFrame, ReplicationView, RoutedOp,
-    SeamImpulseReport, Shape, StateEncoding, WIRE_VERSION, WireError,
+    SeamImpulseReport, Shape, Stage, StateEncoding, WIRE_VERSION, WireError,
 };
 
 const ENCODINGS: [StateEncoding; 2] = [StateEncoding::Exact, StateEncoding::Quantized];
@@ -81,6 +81,7 @@ fn events() -> PhysicsEventsFrame {
     PhysicsEventsFrame {
         from: ClusterId::from_u128(9),
         tick: 100,
+        stage: Stage::AfterStep,
         published_ns: 123_456_789,
         ops: ops
             .into_iter()
@@ -124,6 +125,7 @@ fn events() -> PhysicsEventsFrame {
             impulse: [-3.0, 0.25, 0.0],
             tick: 99,
         }],
+        own_writes: Vec::new(),
         leaving: true,
     }
 }

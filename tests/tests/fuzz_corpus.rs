@@ -66,6 +66,27 @@ fn an_envelope_seed_is_a_current_tagged_envelope() {
     assert_eq!(payload, b"frame bytes");
 }
 
+/// Every hand-made events seed is a frame of the current wire version, and one is an
+/// exchange frame (before the step) carrying a write on the sender's own body.
+#[test]
+fn the_events_seeds_are_current_frames() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds/events_frame");
+    let mut exchange = 0;
+    for entry in std::fs::read_dir(dir).expect("the seeds") {
+        let path = entry.expect("a directory entry").path();
+        let bytes = std::fs::read(&path).expect("readable seed");
+        let frame: seam_sim::wire::PhysicsEventsFrame = seam_sim::wire::decode(&bytes)
+            .unwrap_or_else(|e| panic!("{} is not a current frame: {e}", path.display()));
+        if frame.stage == seam_sim::wire::Stage::BeforeStep && !frame.own_writes.is_empty() {
+            exchange += 1;
+        }
+    }
+    assert_eq!(
+        exchange, 1,
+        "one seed is an exchange frame with an own write"
+    );
+}
+
 #[test]
 fn events_frame_inputs_pass() {
     replay("events_frame", checks::events_frame);

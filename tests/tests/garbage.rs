@@ -12,7 +12,7 @@ use seam_proxy::{Cluster, ClusterConfig, ClusterStats, physics_events, replicati
 use seam_sim::BodyRole;
 use seam_sim::wire::{
     self, ClusterId, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp, ReplicationFrame,
-    ReplicationView, RoutedOp, Shape, StateEncoding,
+    ReplicationView, RoutedOp, Shape, Stage, StateEncoding,
 };
 use seam_tests::{TestContext, ball_at};
 
@@ -145,6 +145,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
     let op_frame = |tick: u64, ops: Vec<PhysicsOp>| PhysicsEventsFrame {
         from: neighbour,
         tick,
+        stage: Stage::AfterStep,
         published_ns: 0,
         // Numbered apart, so none is taken for a repeat of another.
         ops: ops
@@ -162,6 +163,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
         acks: Vec::new(),
         contacts: Vec::new(),
         impulses: Vec::new(),
+        own_writes: Vec::new(),
         leaving: false,
     };
     let target = mine[0].id;

@@ -128,6 +128,12 @@ fn crossfire_pods_cross_the_seam(ctx: &TestContext) {
         west.cluster_stats.handoffs_by_policy >= 1,
         "the projectile followed into east\n{text}"
     );
+    // Pods in phase exchange their ops before the step: west's pushes on east's crates act
+    // on the tick west wrote them (the median one at least, on a loaded machine).
+    assert_eq!(
+        report.ops.ticks.p50, 0,
+        "routed ops applied on their tick\n{text}"
+    );
     let judged = accuracy::judged_document(&JudgedRun {
         run: report,
         against_one_world: Some(against.clone()),

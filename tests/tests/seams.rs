@@ -51,7 +51,14 @@ fn trial(scene: &Scene, settings: TrialSettings) -> Accuracy {
         .accuracy
 }
 
-/// Default settings on every bundled scene: no body escapes, none has two owners or none, every
+/// The bundled scenes not at their noise floor at default settings, and the one figure each
+/// misses (`accuracy::beyond_floor`'s words): `dominoes`' Newton's cradle, whose chain of
+/// contacts is solved on each side, moves its far ball a tick early (onset 57 against the
+/// floor's 76; its RMS and max are at the floor).
+const BEYOND_FLOOR: &[(&str, &str)] = &[("dominoes", "onset")];
+
+/// Default settings on every bundled scene: at its noise floor (but for `BEYOND_FLOOR`, by the
+/// figure named), no body escapes, none has two owners or none, every
 /// judged hand-off lands within 1 cm and 0.05 m/s of the single world's motion, the position
 /// error is at most 1.25 times that of proxies for everything (so interest management costs
 /// no accuracy a scene needs), and the momentum error is within 5 % of Σm|v| beyond the single
@@ -61,7 +68,17 @@ fn trial(scene: &Scene, settings: TrialSettings) -> Accuracy {
 fn bundled_scenes_hold_at_default_settings() {
     for scene in scenes() {
         let name = scene.name.clone();
-        let default = trial(&scene, TrialSettings::default());
+        let r = run_trial(&scene, &TrialSettings::default(), None)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let misses = beyond_floor(&r.accuracy, &r.floor);
+        match BEYOND_FLOOR.iter().find(|(scene, _)| *scene == name) {
+            None => assert!(misses.is_empty(), "{name}: beyond its floor: {misses:?}"),
+            Some((_, figure)) => assert!(
+                misses.len() == 1 && misses[0].starts_with(figure),
+                "{name}: beyond its floor by its {figure} alone: {misses:?}"
+            ),
+        }
+        let default = r.accuracy;
         let everything = trial(
             &scene,
             TrialSettings {
@@ -172,34 +189,51 @@ fn a_trace_names_an_entity_of_the_scene() {
 /// (`light-on-heavy`: one ball bounced off a heavy crate, nothing piled) a second single world
 /// perturbed at round-off stays within 0.1 mm of the first and never departs by 2 cm; on a
 /// chaotic one (`crossfire`: volleys into crate stacks) it ends metres off and departs at a
-/// tick the report names. The split's own onset is reported beside the floor's.
+/// tick the report names. The split's own onset is reported beside the floor's: `crossfire`
+/// split never departs with the exchange of routed ops before the step, and departs, before
+/// the floor does, with its volleys landing a tick late (`exchange` off).
 #[test]
 fn the_noise_floor_is_zero_where_calm_and_not_where_chaotic() {
     let scenes = scenes();
-    let run = |name: &str| {
+    let run = |name: &str, exchange: bool| {
         let scene = scenes.iter().find(|s| s.name == name).expect(name);
-        run_trial(scene, &TrialSettings::default(), None).unwrap_or_else(|e| panic!("{name}: {e}"))
+        let settings = TrialSettings {
+            exchange,
+            ..TrialSettings::default()
+        };
+        run_trial(scene, &settings, None).unwrap_or_else(|e| panic!("{name}: {e}"))
     };
-    let calm = run("light-on-heavy");
+    let calm = run("light-on-heavy", true);
     assert!(
         calm.floor.position_max_m < 1e-4 && calm.floor.onset_tick.is_none(),
         "calm scene, floor ~0: {:?}",
         calm.floor
     );
-    let chaotic = run("crossfire");
+    let chaotic = run("crossfire", true);
     assert!(
         chaotic.floor.position_rms_m > 0.1 && chaotic.floor.onset_tick.is_some(),
         "chaotic scene, a floor of its own: {:?}",
         chaotic.floor
     );
-    let onset = chaotic
+    assert_eq!(
+        chaotic.accuracy.onset_tick, None,
+        "pushes on their tick: {:?}",
+        chaotic.accuracy
+    );
+    let late = run("crossfire", false);
+    let onset = late
         .accuracy
         .onset_tick
-        .expect("the split departs on crossfire");
+        .expect("the split departs on crossfire with its pushes a tick late");
     assert!(
-        onset <= chaotic.ticks && chaotic.accuracy.position_max_m >= seam_bench::accuracy::ONSET_M,
+        onset <= late.ticks && late.accuracy.position_max_m >= seam_bench::accuracy::ONSET_M,
         "an onset is a tick of the run where a body was 2 cm off: {:?}",
-        chaotic.accuracy
+        late.accuracy
+    );
+    assert!(
+        !beyond_floor(&late.accuracy, &late.floor).is_empty(),
+        "a tick late is beyond the floor: {:?}",
+        late.accuracy
     );
 }
 

@@ -391,7 +391,11 @@ impulse = 12.0
     for _ in 0..scene.ticks {
         reference.tick().expect("reference tick");
         for pod in &mut pods {
-            pod.tick_lockstep(TIMEOUT).expect("split tick");
+            pod.begin_lockstep(TIMEOUT).expect("split tick, first half");
+        }
+        for pod in &mut pods {
+            pod.finish_lockstep(TIMEOUT)
+                .expect("split tick, second half");
         }
     }
     // West pushed its own three near balls and routed one push to each of east's six... or

@@ -30,8 +30,9 @@ pub struct FreeRunning {
     pub node_command: Vec<OsString>,
     /// The hosts the pods run on (one, unless set).
     pub hosts: crate::run::HostsPlan,
-    /// Tick every pod at the same moment instead of staggering them (see `RunPlan::in_phase`).
-    pub in_phase: bool,
+    /// Stagger the pods over the period instead of ticking them in phase (see
+    /// `RunPlan::stagger`).
+    pub stagger: bool,
 }
 
 /// Runs the scene at `scene_path` as free-running pods over `transport` with the proxy mode and
@@ -69,12 +70,13 @@ fn free_run_plan(
         authority: settings.authority,
         replication_interval: settings.replication_interval,
         coupling: settings.coupling,
+        exchange: settings.exchange,
         quantize: settings.quantize,
         keyframe_ticks: settings.keyframe_ticks,
         run_id: run_id.to_owned(),
         node_command: free.node_command.clone(),
         start_delay: Duration::from_millis(500),
-        in_phase: free.in_phase,
+        stagger: free.stagger,
         hosts: free.hosts.clone(),
         track_flips: true,
         ..RunPlan::new(scene_path, transport)
@@ -256,6 +258,7 @@ fn run_reference(
         authority: settings.authority.mode(),
         replication_interval: settings.replication_interval,
         coupling: settings.coupling,
+        exchange: settings.exchange,
         ..PodSettings::new(
             format!(
                 "local?prefix=seam_free_{}_{run_id}_{part}_",

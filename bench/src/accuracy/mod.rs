@@ -48,6 +48,9 @@ pub struct TrialSettings {
     pub replication_interval: u64,
     /// Whether contacts push across the seam (see `seam_proxy::ClusterConfig::coupling`).
     pub coupling: bool,
+    /// Whether routed ops are exchanged before the step (see
+    /// `seam_proxy::ClusterConfig::exchange`).
+    pub exchange: bool,
     /// Quantized replication states (see `seam_sim::wire::StateEncoding`).
     pub quantize: bool,
     /// A keyframe at most every this many ticks (see `ClusterConfig::keyframe_ticks`).
@@ -85,6 +88,7 @@ impl Default for TrialSettings {
             authority: AuthorityArgs::default(),
             replication_interval: 1,
             coupling: true,
+            exchange: true,
             quantize: false,
             keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
             spread: None,
@@ -221,6 +225,7 @@ fn trial_pod_settings(settings: &TrialSettings, transport: String) -> PodSetting
         authority: settings.authority.mode(),
         replication_interval: settings.replication_interval,
         coupling: settings.coupling,
+        exchange: settings.exchange,
         state_encoding: if settings.quantize {
             StateEncoding::Quantized
         } else {
@@ -236,6 +241,24 @@ fn trial_pod_settings(settings: &TrialSettings, transport: String) -> PodSetting
 fn trial_recorder(scene: &Scene, path: &std::path::Path) -> BenchResult<PodRecorder> {
     let table = EntityTable::new(scene, TRIAL_RUN, scene.ticks, 0.0, "seam compare", true);
     Ok(PodRecorder::create(path, table)?)
+}
+
+/// One lock-step tick of every pod, in two halves (every pod's first half before any
+/// second, so each has its neighbours' exchanged ops before it steps); returns each pod's
+/// time in its two halves, ns.
+fn tick_lockstep(pods: &mut [Pod]) -> BenchResult<Vec<u64>> {
+    let mut took = Vec::with_capacity(pods.len());
+    for pod in pods.iter_mut() {
+        let begun = Instant::now();
+        pod.begin_lockstep(LOCKSTEP_TIMEOUT).context(pod.name())?;
+        took.push(begun.elapsed().as_nanos() as u64);
+    }
+    for (pod, took) in pods.iter_mut().zip(&mut took) {
+        let begun = Instant::now();
+        pod.finish_lockstep(LOCKSTEP_TIMEOUT).context(pod.name())?;
+        *took += begun.elapsed().as_nanos() as u64;
+    }
+    Ok(took)
 }
 
 /// The pods' op stages and counters, summed.
@@ -308,10 +331,8 @@ pub fn run_recorded_trial(
             recorder.observe(&reference, took).map_err(recording)?;
         }
         floor.observe(&reference)?;
-        for (pod, time) in pods.iter_mut().zip(&mut tick_times) {
-            let begun = Instant::now();
-            pod.tick_lockstep(LOCKSTEP_TIMEOUT).context(pod.name())?;
-            let took = begun.elapsed().as_nanos() as u64;
+        let took = tick_lockstep(&mut pods)?;
+        for ((pod, time), &took) in pods.iter_mut().zip(&mut tick_times).zip(&took) {
             time.record(took);
             proxies_sum += pod.population().1 as u64;
             if let Some(recorder) = &mut recorder {
@@ -410,7 +431,7 @@ fn trial_text(r: &TrialResult) -> String {
     let (s, a, c) = (&r.settings, &r.accuracy, &r.cost);
     format!(
         "seam compare: {} split ({}) against one world, {} ticks\n\
-         settings: {} proxies, contact coupling {}, {} authority, replication every {} tick(s) \
+         settings: {} proxies, contact coupling {}, ops {}, {} authority, replication every {} tick(s) \
          ({} states), spread {}, projectiles {}, CCD {}\n\n\
          accuracy\n\
          \x20 position error       RMS {:.4} m, max {:.4} m (over {}){}\n\
@@ -438,6 +459,11 @@ fn trial_text(r: &TrialResult) -> String {
         r.ticks,
         mode_name(s.proxy_mode),
         if s.coupling { "on" } else { "off" },
+        if s.exchange {
+            "exchanged before the step"
+        } else {
+            "after the step"
+        },
         s.authority.label(),
         s.replication_interval,
         if s.quantize { "quantized" } else { "exact" },
@@ -578,9 +604,14 @@ fn summary(results: &[TrialResult]) -> Table {
         table.row(vec![
             format!("`{}`", r.scene),
             format!(
-                "{}{}{}",
+                "{}{}{}{}",
                 mode_name(s.proxy_mode),
                 if s.coupling { "" } else { ", uncoupled" },
+                if s.exchange {
+                    ""
+                } else {
+                    ", ops after the step"
+                },
                 if s.quantize { ", quantized" } else { "" }
             ),
             s.authority.label(),

@@ -38,6 +38,7 @@ impl AgainstOneWorld {
             authority: plan.authority,
             replication_interval: plan.replication_interval,
             coupling: plan.coupling,
+            exchange: plan.exchange,
             quantize: plan.quantize,
             keyframe_ticks: plan.keyframe_ticks,
             ticks: Some(ticks),

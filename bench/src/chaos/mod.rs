@@ -1,6 +1,6 @@
 //! `seam chaos`: a scene's pods under faults on a schedule, and what survived.
 //!
-//! The pods run as in `seam run` (one `seam node` per cluster, staggered, shared schedule) on a
+//! The pods run as in `seam run` (one `seam node` per cluster, in phase on a shared schedule) on a
 //! transport of their own: shared memory under a private prefix, or with `--transport redis` a
 //! private `redis-server` this command starts (so it can kill it). Every `fault_every` one
 //! fault, in turn:

@@ -37,7 +37,7 @@ pub(super) struct Pods {
 
 impl Pods {
     /// Launches one pod per name of `clusters`, each `ticks` ticks, the first at `start_at`
-    /// (monotonic ns) and the others staggered as `run_plan` says.
+    /// (monotonic ns) and the others in phase with it or staggered, as `run_plan` says.
     pub(super) fn launch_all(
         run_plan: RunPlan,
         clusters: &[String],

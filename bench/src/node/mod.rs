@@ -172,6 +172,12 @@ pub struct ModelArgs {
     /// `seam_sim::coupling`). For measuring what coupling buys.
     #[arg(long)]
     pub no_coupling: bool,
+    /// Routed ops go after the step and land a tick late (caught up only for bodies touching
+    /// nothing), instead of being exchanged before it and acting in the step they were
+    /// written in (see `seam_proxy::ClusterConfig::exchange`). For measuring what the
+    /// exchange buys and costs.
+    #[arg(long)]
+    pub no_exchange: bool,
     /// Quantized replication states: positions in fixed point (±0.49 mm), rotations as
     /// smallest-three (≤ 2·10⁻⁴ rad), velocities as half floats; 55 bytes a state instead of
     /// 77. Off: exact floats.
@@ -514,6 +520,7 @@ fn pod_settings(args: &NodeArgs) -> PodSettings {
         authority: args.model.authority.mode(),
         replication_interval: args.model.replication_interval,
         coupling: !args.model.no_coupling,
+        exchange: !args.model.no_exchange,
         state_encoding: args.model.state_encoding(),
         keyframe_ticks: args.model.keyframe_ticks,
         neighbour_timeout_ticks: args.neighbour_timeout_ticks,

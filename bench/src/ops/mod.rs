@@ -23,7 +23,9 @@ use std::process::{Command, Stdio};
 use std::time::Instant;
 
 use seam_proxy::monotonic_ns;
-use seam_sim::wire::{self, ClusterId, EntityId, OpAck, PhysicsEventsFrame, PhysicsOp, RoutedOp};
+use seam_sim::wire::{
+    self, ClusterId, EntityId, OpAck, PhysicsEventsFrame, PhysicsOp, RoutedOp, Stage,
+};
 use seam_transport::redact_url;
 use serde::{Deserialize, Serialize};
 
@@ -125,6 +127,7 @@ fn batch_frame(batch: usize, acks: usize) -> PhysicsEventsFrame {
     PhysicsEventsFrame {
         from: ClusterId::random(),
         tick: 0,
+        stage: Stage::AfterStep,
         published_ns: 0,
         ops: Vec::with_capacity(batch),
         // Answers to as many ops of the other side, numbered as a pod numbers its ops: one
@@ -140,6 +143,7 @@ fn batch_frame(batch: usize, acks: usize) -> PhysicsEventsFrame {
             .collect(),
         contacts: Vec::new(),
         impulses: Vec::new(),
+        own_writes: Vec::new(),
         leaving: false,
     }
 }

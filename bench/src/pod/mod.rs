@@ -59,6 +59,8 @@ pub struct PodSettings {
     pub replication_interval: u64,
     /// Whether contacts push across the seam (see `ClusterConfig::coupling`).
     pub coupling: bool,
+    /// Routed ops exchanged before the step (see `ClusterConfig::exchange`).
+    pub exchange: bool,
     /// How replication frames write motion (see `ClusterConfig::state_encoding`).
     pub state_encoding: StateEncoding,
     /// A keyframe at most every this many ticks (see `ClusterConfig::keyframe_ticks`).
@@ -88,6 +90,7 @@ impl PodSettings {
             authority: AuthorityMode::spatial(),
             replication_interval: 1,
             coupling: true,
+            exchange: true,
             state_encoding: StateEncoding::Exact,
             keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
             neighbour_timeout_ticks: 60,
@@ -213,6 +216,7 @@ fn apply_settings(config: &mut ClusterConfig, scene: &Scene, settings: &PodSetti
     config.authority = settings.authority;
     config.replication_interval = settings.replication_interval.max(1);
     config.coupling = settings.coupling;
+    config.exchange = settings.exchange;
     config.state_encoding = settings.state_encoding;
     config.keyframe_ticks = settings.keyframe_ticks;
     config.dt = scene.dt;
@@ -588,14 +592,20 @@ impl Pod {
         Ok(())
     }
 
-    /// One lock-step tick with this tick's events (see [`Cluster::tick_lockstep`]).
-    pub fn tick_lockstep(&mut self, timeout: Duration) -> Result<(), ClusterError> {
+    /// The first half of a lock-step tick with this tick's events (see
+    /// [`Cluster::begin_lockstep`]): every pod of a trial begins before any finishes.
+    pub fn begin_lockstep(&mut self, timeout: Duration) -> Result<(), ClusterError> {
         let actions = self.before_tick();
         let (counts, routed) = (&mut self.counts, &mut self.routed_pushes);
         let entities = &self.entities;
-        self.cluster.tick_lockstep(timeout, |context, physics| {
+        self.cluster.begin_lockstep(timeout, |context, physics| {
             events::run(&actions, entities, context, physics, counts, routed)
-        })?;
+        })
+    }
+
+    /// The second half (see [`Cluster::finish_lockstep`]).
+    pub fn finish_lockstep(&mut self, timeout: Duration) -> Result<(), ClusterError> {
+        self.cluster.finish_lockstep(timeout)?;
         self.after_tick();
         Ok(())
     }

@@ -2,10 +2,12 @@
 //! progress while they run, and one report when they are done.
 //!
 //! Every pod gets the same run id (so they agree on ids and no other run hears them) and a
-//! start time on the host's monotonic clock, a moment after launch. Pods are staggered: pod `i`
-//! of `n` ticks `i/n` of a period after pod 0, so co-hosted pods do not all want a core at the
-//! same moment, and a frame sent at the end of one pod's tick waits less for the next tick of
-//! its receiver. `in_phase` starts them together instead. Each pod prints JSON lines ([`NodeLine`]); this side reads them, shows
+//! start time on the host's monotonic clock, a moment after launch, and they tick in phase:
+//! with the exchange of routed ops before the step (`ClusterConfig::exchange`), a tick is a
+//! barrier between neighbours, and pods in phase see each other's steps as lock-step clusters
+//! do. `stagger` starts pod `i` of `n` `i/n` of a period after pod 0 instead, so co-hosted
+//! pods do not all want a core at the same moment (what the exchange then waits for is mostly
+//! late: see BENCHMARKS.md). Each pod prints JSON lines ([`NodeLine`]); this side reads them, shows
 //! progress, and merges the final reports: per pod its ticks, tick-time percentiles and
 //! overruns, entities and proxies, ops, contacts, hand-offs and drops; for all pods together the
 //! routed-op stages. SIGINT or SIGTERM is passed on to the pods, which stop after their current
@@ -51,6 +53,8 @@ pub struct RunPlan {
     pub replication_interval: u64,
     /// Whether contacts push across the seam (see `ClusterConfig::coupling`).
     pub coupling: bool,
+    /// Routed ops exchanged before the step (see `seam_proxy::ClusterConfig::exchange`).
+    pub exchange: bool,
     /// Quantized replication states (see `ModelArgs::quantize`).
     pub quantize: bool,
     /// A keyframe at most every this many ticks (see `ModelArgs::keyframe_ticks`).
@@ -63,8 +67,8 @@ pub struct RunPlan {
     pub node_command: Vec<OsString>,
     /// How long after launch tick 0 is due (time for pods to start and open the transport).
     pub start_delay: Duration,
-    /// Tick all pods at the same moment instead of staggering them over the period.
-    pub in_phase: bool,
+    /// Stagger the pods over the period instead of ticking them all at the same moment.
+    pub stagger: bool,
     /// Hosts the pods run on (one unless the scene or `--hosts` says more).
     pub hosts: HostsPlan,
     /// Pods record every authority flip (`seam node --track-flips`).
@@ -89,13 +93,14 @@ impl RunPlan {
             authority: AuthorityArgs::default(),
             replication_interval: 1,
             coupling: true,
+            exchange: true,
             quantize: false,
             keyframe_ticks: seam_proxy::DEFAULT_KEYFRAME_TICKS,
             layers: 1,
             run_id: fresh_run_id(),
             node_command: Vec::new(),
             start_delay: Duration::from_millis(750),
-            in_phase: false,
+            stagger: false,
             hosts: HostsPlan::default(),
             track_flips: false,
             record_dir: None,
@@ -104,7 +109,7 @@ impl RunPlan {
 
     /// How much later than pod 0 pod `index` of `pods` ticks, ns (see the module docs).
     pub fn pod_offset_ns(&self, index: usize, pods: u64) -> u64 {
-        if self.in_phase || self.rate <= 0.0 {
+        if !self.stagger || self.rate <= 0.0 {
             0
         } else {
             (1e9 / self.rate) as u64 * index as u64 / pods
@@ -180,6 +185,9 @@ pub fn spawn_pod(
         .stderr(Stdio::piped());
     if launch.rejoin {
         command.arg("--rejoin");
+    }
+    if !plan.exchange {
+        command.arg("--no-exchange");
     }
     if !plan.coupling {
         command.arg("--no-coupling");

@@ -83,6 +83,8 @@ pub struct RunReport {
     pub replication_interval: u64,
     /// Whether contacts pushed across the seam (see `ClusterConfig::coupling`).
     pub coupling: bool,
+    /// Whether routed ops were exchanged before the step (see `ClusterConfig::exchange`).
+    pub exchange: bool,
     /// Whether replication states were quantized.
     pub quantize: bool,
     /// Seconds from launch to the last pod's exit.
@@ -151,6 +153,7 @@ impl RunReport {
             proxy_mode: plan.proxy_mode,
             replication_interval: plan.replication_interval,
             coupling: plan.coupling,
+            exchange: plan.exchange,
             quantize: plan.quantize,
             wall_s,
             pods,
@@ -214,7 +217,7 @@ fn title(report: &RunReport) -> String {
     };
     format!(
         "seam run: {} ({} entities) on {}, {} pods, {ticks} ticks {rate}, {:?} proxies, \
-         replication every {} tick(s){}, coupling {}, {:.1} s",
+         replication every {} tick(s){}, coupling {}, ops {}, {:.1} s",
         report.scene,
         report.entities,
         report.transport,
@@ -223,6 +226,11 @@ fn title(report: &RunReport) -> String {
         report.replication_interval,
         if report.quantize { " quantized" } else { "" },
         if report.coupling { "on" } else { "off" },
+        if report.exchange {
+            "exchanged before the step"
+        } else {
+            "after the step"
+        },
         report.wall_s
     )
 }

@@ -4,14 +4,16 @@
 //! # Layout
 //!
 //! - here: [`Cluster`], its parts, and what game code calls between ticks.
-//! - `tick` — the ways to run a tick (free-running, lock-step) and `run_tick`, the list of
-//!   phases.
+//! - `tick` — the ways to run a tick (free-running, lock-step in one call or two halves) and
+//!   `run_until_exchange` and `finish_tick`, the list of phases.
+//! - `exchange` — the exchange before the step: this tick's ops and own writes out, the
+//!   neighbours' waited for and applied.
 //! - `receive` — frames taken off the transport into the inbox.
 //! - `publish` — this tick's frames out: replication (with the policy's hand-offs) and one
 //!   physics-events frame per neighbour.
 
 use seam_sim::wire::{
-    self, ClusterId, EntityId, EntityState, PhysicsEventsFrame, ReplicationFrame,
+    self, ClusterId, EntityId, EntityState, PhysicsEventsFrame, ReplicationFrame, Stage,
 };
 use seam_sim::{BodyRole, ClusterSim, SimConfig};
 use seam_transport::Transport;
@@ -31,6 +33,7 @@ use crate::replication::{CustomProxy, Interest, Keys, Proxies, Publisher};
 use crate::routing::Routing;
 use crate::world::Region;
 
+mod exchange;
 mod publish;
 mod receive;
 mod tick;
@@ -91,6 +94,12 @@ pub struct Cluster {
     free_running: bool,
     /// Set by [`Cluster::leave`]: every events frame from then on says so.
     leaving: bool,
+    /// A tick has run up to the exchange and not finished yet (see
+    /// [`Cluster::begin_lockstep`]).
+    begun: bool,
+    /// Free-running, this tick started with every live neighbour in step and its frames of
+    /// the step before in, as a lock-step tick does.
+    in_step: bool,
 }
 
 impl Cluster {
@@ -149,6 +158,8 @@ impl Cluster {
             host_ns: monotonic_ns(),
             free_running: false,
             leaving: false,
+            begun: false,
+            in_step: false,
             config,
             sim,
             transport,
@@ -274,17 +285,14 @@ impl Cluster {
         self.leaving = true;
         for i in 0..self.config.neighbours.len() {
             let neighbour = self.config.neighbours[i];
-            let frame = PhysicsEventsFrame {
-                from: self.config.cluster_id,
-                // One past the last tick's frame, which it would otherwise replay.
-                tick: self.sim.tick() + 1,
-                published_ns: monotonic_ns(),
-                ops: Vec::new(),
-                acks: Vec::new(),
-                contacts: Vec::new(),
-                impulses: Vec::new(),
-                leaving: true,
-            };
+            // One past the last tick's frame, which it would otherwise replay.
+            let mut frame = PhysicsEventsFrame::empty(
+                self.config.cluster_id,
+                self.sim.tick() + 1,
+                Stage::AfterStep,
+                monotonic_ns(),
+            );
+            frame.leaving = true;
             self.publish_events_frame(neighbour, &frame)?;
         }
         Ok(())

@@ -1,7 +1,7 @@
 //! This tick's frames out: the replication frame (after asking the authority policy), and one
 //! physics-events frame per neighbour with its routed ops, answers, contacts and impulses.
 
-use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame};
+use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame, Stage};
 
 use super::Cluster;
 use crate::authority::AuthorityView;
@@ -108,11 +108,13 @@ impl Cluster {
         let frame = PhysicsEventsFrame {
             from: me,
             tick,
+            stage: Stage::AfterStep,
             published_ns: monotonic_ns(),
             ops,
             acks: self.receipts.take_answers(neighbour),
             contacts,
             impulses: self.seam.take_for(neighbour),
+            own_writes: Vec::new(),
             leaving: self.leaving,
         };
         self.publish_events_frame(neighbour, &frame)

@@ -5,7 +5,7 @@ use super::Cluster;
 use crate::clock::monotonic_ns;
 use crate::error::ClusterError;
 use crate::events::{ClusterEvent, FrameRefusal};
-use crate::inbox::{Frame, decode_frame};
+use crate::inbox::{Frame, FrameKind, decode_frame};
 
 impl Cluster {
     /// Moves everything the transport holds into the inbox.
@@ -23,9 +23,9 @@ impl Cluster {
     /// dropped; the others go to the inbox for the tick that uses them.
     pub(super) fn take_in(&mut self, frame: Result<Frame, FrameRefusal>, received_ns: u64) {
         match self.file(frame, received_ns) {
-            Ok((from, tick, replication)) => {
+            Ok((from, tick, kind)) => {
                 self.events.emit(ClusterEvent::FrameAccepted { from });
-                self.heard(from, tick, replication);
+                self.heard(from, tick, kind);
             }
             Err(reason) => self.events.emit(ClusterEvent::FrameRefused { reason }),
         }
@@ -36,9 +36,9 @@ impl Cluster {
         &mut self,
         frame: Result<Frame, FrameRefusal>,
         received_ns: u64,
-    ) -> Result<(seam_sim::wire::ClusterId, u64, bool), FrameRefusal> {
+    ) -> Result<(seam_sim::wire::ClusterId, u64, FrameKind), FrameRefusal> {
         let frame = frame?;
-        let (from, tick, replication) = (frame.from(), frame.tick(), frame.is_replication());
+        let (from, tick, kind) = (frame.from(), frame.tick(), frame.kind());
         let mine = self.sim.tick();
         if self
             .neighbours
@@ -46,7 +46,7 @@ impl Cluster {
         {
             return Err(FrameRefusal::Implausible);
         }
-        if self.neighbours.replayed(from, tick, replication) {
+        if self.neighbours.replayed(from, tick, kind) {
             return Err(FrameRefusal::Replayed);
         }
         if !self.config.neighbours.contains(&from) {
@@ -66,7 +66,7 @@ impl Cluster {
             Frame::Events(frame) => self.inbox.add_events(frame, received_ns),
         };
         if kept {
-            Ok((from, tick, replication))
+            Ok((from, tick, kind))
         } else {
             Err(FrameRefusal::Replayed)
         }
@@ -74,11 +74,11 @@ impl Cluster {
 
     /// Notes a frame from `neighbour` tagged `tick`; a neighbour back from the dead gets back
     /// what was adopted from it.
-    fn heard(&mut self, neighbour: seam_sim::wire::ClusterId, tick: u64, replication: bool) {
+    fn heard(&mut self, neighbour: seam_sim::wire::ClusterId, tick: u64, kind: FrameKind) {
         let now = self.sim.tick();
         if !self
             .neighbours
-            .heard(neighbour, tick, replication, now, self.host_ns)
+            .heard(neighbour, tick, kind, now, self.host_ns)
         {
             return;
         }

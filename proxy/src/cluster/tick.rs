@@ -1,5 +1,6 @@
 //! Running a tick: free-running ([`Cluster::tick`], [`Cluster::wait`]) or in lock-step
-//! ([`Cluster::tick_lockstep`]), and `run_tick`, the phases every tick runs in order.
+//! ([`Cluster::tick_lockstep`], or its two halves), and `run_until_exchange` and
+//! `finish_tick`, the phases every tick runs in order.
 
 use std::time::{Duration, Instant};
 
@@ -43,19 +44,43 @@ impl Cluster {
         self.free_running = true;
         self.host_ns = now_ns;
         self.drain()?;
+        self.wait_step_free()?;
         self.check_liveness();
         let frames = self.inbox.take_all();
-        self.run_tick(frames, user)
+        self.run_until_exchange(frames, user)?;
+        self.wait_exchange_free()?;
+        self.finish_tick()
     }
 
     /// One tick in lock-step: waits (up to `timeout`) until every neighbour's frames from the
     /// same tick have arrived, and uses exactly those, so runs are deterministic on any
-    /// transport.
+    /// transport. With the exchange (`ClusterConfig::exchange`, on by default) it also waits,
+    /// before stepping, for every neighbour's ops of this tick, so the neighbours must be
+    /// ticking at the same time (other threads or processes); one thread stepping several
+    /// clusters calls [`Cluster::begin_lockstep`] on each, then [`Cluster::finish_lockstep`]
+    /// on each (as [`lockstep_round`](crate::lockstep_round) does).
     pub fn tick_lockstep(
         &mut self,
         timeout: Duration,
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
+        self.begin_lockstep(timeout, user)?;
+        self.finish_lockstep(timeout)
+    }
+
+    /// The first half of a lock-step tick: waits (up to `timeout`) for the neighbours' frames
+    /// of the previous step, runs every phase up to game code and the routing after it, and
+    /// sends the exchange frames. [`Cluster::finish_lockstep`] runs the rest.
+    pub fn begin_lockstep(
+        &mut self,
+        timeout: Duration,
+        user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
+    ) -> Result<(), ClusterError> {
+        if self.begun {
+            return Err(ClusterError::TickOrder(
+                "begin_lockstep called again before finish_lockstep",
+            ));
+        }
         self.free_running = false;
         self.host_ns = monotonic_ns();
         let tick = self.sim.tick();
@@ -63,7 +88,19 @@ impl Cluster {
             self.wait_for_tick(tick, timeout)?;
         }
         let frames = self.inbox.take_tick(tick, &self.config.neighbours);
-        self.run_tick(frames, user)
+        self.run_until_exchange(frames, user)
+    }
+
+    /// The second half of a lock-step tick: waits (up to `timeout`) for every neighbour's
+    /// exchange frame of this tick, applies their ops, steps and publishes.
+    pub fn finish_lockstep(&mut self, timeout: Duration) -> Result<(), ClusterError> {
+        if !self.begun {
+            return Err(ClusterError::TickOrder(
+                "finish_lockstep called without begin_lockstep",
+            ));
+        }
+        self.wait_exchange_lockstep(timeout)?;
+        self.finish_tick()
     }
 
     /// Waits (up to `timeout`) until every neighbour's frames tagged `tick` are in.
@@ -110,12 +147,14 @@ impl Cluster {
         Ok(true)
     }
 
-    /// One tick on the frames the caller gathered: every phase, in order.
-    fn run_tick(
+    /// A tick on the frames the caller gathered, every phase in order up to the exchange (the
+    /// caller then waits for the neighbours' exchange frames and calls `finish_tick`).
+    fn run_until_exchange(
         &mut self,
         frames: TickFrames,
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
+        self.begun = true;
         self.reconcile(frames.replication);
         self.take_leaving(&frames.events);
         self.surface_contacts(&frames.events);
@@ -124,6 +163,13 @@ impl Cluster {
         self.take_answers(&frames.events);
         self.apply_routed(&frames.events);
         self.resend_due();
+        self.send_exchange()
+    }
+
+    /// The rest of the tick, from the neighbours' exchanged ops to the frames out.
+    fn finish_tick(&mut self) -> Result<(), ClusterError> {
+        self.begun = false;
+        self.apply_exchanged();
         self.couple();
         self.step();
         self.report();
@@ -226,9 +272,12 @@ impl Cluster {
     /// among them are shown on this world's coupled proxies (see `crate::contacts`).
     fn run_user(&mut self, user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>)) {
         let tick = self.sim.tick();
-        let mut outbox = self
-            .routing
-            .outbox(&mut self.numbers, &self.config.neighbours, tick);
+        let mut outbox = self.routing.outbox(
+            &mut self.numbers,
+            &self.config.neighbours,
+            tick,
+            self.config.exchange && self.config.coupling,
+        );
         self.sim.run_user(&mut outbox, user);
         if self.config.coupling {
             self.predictions.routed(self.routing.queued(), tick);
@@ -238,7 +287,9 @@ impl Cluster {
     /// Contacts across the seam settled (see `crate::contacts`); the pushes the other world
     /// did not see routed to their bodies' owners.
     fn settle_seam(&mut self, events: &EventsFrames) {
-        let wait = if self.free_running {
+        // A free-running tick whose neighbours are all in step has their reports of the
+        // step before, as a lock-step tick does.
+        let wait = if self.free_running && !self.in_step {
             HALF_WAITS_TICKS
         } else {
             0

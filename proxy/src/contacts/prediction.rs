@@ -62,6 +62,22 @@ impl Predictions {
         }
     }
 
+    /// Notes the impulses a neighbour's game code gave its own bodies at `tick` (from its
+    /// exchange frame of that tick): shown on this world's coupled proxies of them as this
+    /// cluster's own routed impulses are, so that both worlds step those bodies pushed.
+    pub(crate) fn neighbour_wrote(&mut self, writes: &[PhysicsOp], tick: u64) {
+        for op in writes {
+            if let PhysicsOp::Impulse { target, impulse } = *op {
+                self.pending.push(Predicted {
+                    target,
+                    impulse,
+                    issued_tick: tick,
+                    shown: false,
+                });
+            }
+        }
+    }
+
     /// The owner's replicated state of `id` has set its proxy: the predictions for it end.
     pub(crate) fn state_applied(&mut self, id: EntityId) {
         if !self.pending.is_empty() {

@@ -137,6 +137,25 @@ pub enum ClusterEvent {
         /// How many.
         count: u64,
     },
+    /// Free-running, a live neighbour's exchange frame of this tick did not come within
+    /// `ClusterConfig::neighbour_wait_ticks`: its ops are applied a tick late.
+    ExchangeMissed {
+        /// The neighbour.
+        neighbour: ClusterId,
+    },
+    /// Free-running, a live neighbour's frames of the step before did not come within
+    /// `ClusterConfig::neighbour_wait_ticks` of this tick's start: this tick sees its last
+    /// frames instead.
+    StepMissed {
+        /// The neighbour.
+        neighbour: ClusterId,
+    },
+    /// An impulse a neighbour said it gave its own body was not shown here: not finite, or
+    /// beyond `ClusterConfig::max_magnitude`.
+    OwnWriteRejected {
+        /// The neighbour.
+        from: ClusterId,
+    },
     /// A routed op went out for the first time from this cluster: issued here, or taken on to
     /// forward.
     OpSent {

@@ -94,6 +94,15 @@ pub struct ClusterStats {
     /// Times an impulse game code routed to an entity's owner was added to this world's coupled
     /// proxy of it, until the owner's frames carry it (see `crate::contacts`).
     pub impulses_predicted: u64,
+    /// Free-running, exchange frames of a live neighbour that did not come in time for this
+    /// cluster's step (their ops applied a tick late; see `ClusterConfig::exchange`).
+    pub exchanges_missed: u64,
+    /// Free-running, ticks that started without a live neighbour's frames of the step before
+    /// (it was later than `ClusterConfig::neighbour_wait_ticks`).
+    pub steps_missed: u64,
+    /// Impulses neighbours said they gave their own bodies, not shown here: not finite or
+    /// beyond `ClusterConfig::max_magnitude`.
+    pub own_writes_rejected: u64,
     /// Entities handed to another cluster.
     pub handoffs_out: u64,
     /// Entities taken over from another cluster.
@@ -218,6 +227,9 @@ impl ClusterStats {
             E::ProxyDespawned { .. } => self.proxies_despawned += 1,
             E::ProxiesCoupled { count } => self.proxies_coupled += count,
             E::ImpulsesPredicted { count } => self.impulses_predicted += count,
+            E::ExchangeMissed { .. } => self.exchanges_missed += 1,
+            E::StepMissed { .. } => self.steps_missed += 1,
+            E::OwnWriteRejected { .. } => self.own_writes_rejected += 1,
             E::OpSent { .. }
             | E::OpResent { .. }
             | E::OpAnswered { .. }

@@ -1,7 +1,7 @@
 //! A received message made a frame: decoded straight from the received bytes (on shm, the
 //! shared-memory sample), or refused with the reason.
 
-use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame};
+use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame, Stage};
 
 use super::held::HeldReplication;
 use crate::channels::{self, Channel};
@@ -30,10 +30,31 @@ impl Frame {
         }
     }
 
-    /// Whether it is a replication frame.
-    pub(crate) fn is_replication(&self) -> bool {
-        matches!(self, Frame::Replication(_))
+    /// Its kind.
+    pub(crate) fn kind(&self) -> FrameKind {
+        match self {
+            Frame::Replication(_) => FrameKind::Replication,
+            Frame::Events(f) if f.stage == Stage::BeforeStep => FrameKind::Exchange,
+            Frame::Events(_) => FrameKind::Events,
+        }
     }
+}
+
+/// The kinds of frame a neighbour sends, one of each per tick, each numbered by tick on its
+/// own (so a replay is told per kind).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum FrameKind {
+    /// Its replication frame.
+    Replication = 0,
+    /// Its physics-events frame after the step.
+    Events = 1,
+    /// Its physics-events frame before the step (the exchange).
+    Exchange = 2,
+}
+
+impl FrameKind {
+    /// How many kinds there are.
+    pub(crate) const COUNT: usize = 3;
 }
 
 fn refusal(error: wire::WireError) -> FrameRefusal {

@@ -15,12 +15,12 @@
 use std::collections::BTreeMap;
 use std::collections::btree_map::Entry;
 
-use seam_sim::wire::{ClusterId, PhysicsEventsFrame};
+use seam_sim::wire::{ClusterId, PhysicsEventsFrame, Stage};
 
 mod decode;
 mod held;
 
-pub(crate) use decode::{Frame, decode_frame};
+pub(crate) use decode::{Frame, FrameKind, decode_frame};
 pub(crate) use held::HeldReplication;
 
 /// Frames waiting to be used.
@@ -29,6 +29,9 @@ pub(crate) struct Inbox {
     replication: BTreeMap<(u64, ClusterId), HeldReplication>,
     /// With the host monotonic time it was received at.
     events: BTreeMap<(u64, ClusterId), (PhysicsEventsFrame, u64)>,
+    /// Events frames published before their sender's step (the exchange), by the tick they
+    /// were published in, with the time received.
+    exchange: BTreeMap<(u64, ClusterId), (PhysicsEventsFrame, u64)>,
 }
 
 /// The frames one tick uses, in neighbour order.
@@ -81,10 +84,15 @@ impl Inbox {
         true
     }
 
-    /// Keeps an events frame received at `received_ns`, the first of each sender and tick as
-    /// for replication. Returns whether it was kept.
+    /// Keeps an events frame received at `received_ns`, the first of each sender, stage and
+    /// tick as for replication. Returns whether it was kept.
     pub(crate) fn add_events(&mut self, frame: PhysicsEventsFrame, received_ns: u64) -> bool {
-        match self.events.entry((frame.tick, frame.from)) {
+        let kept = if frame.stage == Stage::BeforeStep {
+            &mut self.exchange
+        } else {
+            &mut self.events
+        };
+        match kept.entry((frame.tick, frame.from)) {
             Entry::Vacant(slot) => {
                 slot.insert((frame, received_ns));
                 true
@@ -126,6 +134,37 @@ impl Inbox {
         self.replication.retain(|(t, _), _| *t > tick);
         self.events.retain(|(t, _), _| *t > tick);
         frames
+    }
+
+    /// Whether `neighbour`'s exchange frame of `tick` (or a later one) is in.
+    pub(crate) fn has_exchange(&self, tick: u64, neighbour: ClusterId) -> bool {
+        self.exchange
+            .keys()
+            .any(|&(t, from)| from == neighbour && t >= tick)
+    }
+
+    /// Takes the exchange frames of `tick` and before, in `neighbours` order (each sender's
+    /// oldest first); the next tick's stay for it. Free-running, those further ahead are taken
+    /// too: this cluster is behind its neighbour (stalled, catching up) or counts its ticks
+    /// from another start, and holding them would hold their ops for as long.
+    pub(crate) fn take_exchange(
+        &mut self,
+        tick: u64,
+        neighbours: &[ClusterId],
+        free_running: bool,
+    ) -> Vec<(PhysicsEventsFrame, u64)> {
+        let due = |t: u64| t <= tick || (free_running && t > tick + 1);
+        let mut taken = Vec::new();
+        for &n in neighbours {
+            let keys: Vec<(u64, ClusterId)> = self
+                .exchange
+                .keys()
+                .filter(|&&(t, from)| from == n && due(t))
+                .copied()
+                .collect();
+            taken.extend(keys.iter().filter_map(|key| self.exchange.remove(key)));
+        }
+        taken
     }
 
     /// Takes everything (free-running): every events frame, and the newest replication frame of

@@ -4,6 +4,7 @@ use seam_sim::wire::{ClusterId, IdMap, PhysicsEventsFrame};
 
 use crate::authority::NeighbourView;
 use crate::config::ClusterConfig;
+use crate::inbox::FrameKind;
 
 /// What a cluster knows of a neighbour's liveness.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,10 +36,9 @@ struct Peer {
     status: NeighbourStatus,
     /// This cluster's tick when it last heard from the neighbour.
     heard_at: u64,
-    /// The highest tick of the neighbour's replication frames taken so far.
-    newest_replication: Option<u64>,
-    /// The same for its physics-events frames.
-    newest_events: Option<u64>,
+    /// The highest tick of the neighbour's frames of each kind taken so far, by
+    /// [`FrameKind`].
+    newest: [Option<u64>; FrameKind::COUNT],
     /// Host time of the tick its last frame was taken in, ns.
     heard_ns: u64,
 }
@@ -49,18 +49,13 @@ impl Peer {
         Self {
             status: NeighbourStatus::NotHeard,
             heard_at: 0,
-            newest_replication: None,
-            newest_events: None,
+            newest: [None; FrameKind::COUNT],
             heard_ns: 0,
         }
     }
 
-    fn newest(&self, replication: bool) -> Option<u64> {
-        if replication {
-            self.newest_replication
-        } else {
-            self.newest_events
-        }
+    fn newest(&self, kind: FrameKind) -> Option<u64> {
+        self.newest[kind as usize]
     }
 }
 
@@ -109,7 +104,38 @@ impl Neighbours {
     pub(crate) fn has_reported(&self, neighbour: ClusterId, step: u64) -> bool {
         self.peers.get(&neighbour).is_some_and(|peer| {
             peer.status == NeighbourStatus::Alive
-                && peer.newest_events.is_some_and(|newest| newest >= step)
+                && peer
+                    .newest(FrameKind::Events)
+                    .is_some_and(|newest| newest >= step)
+        })
+    }
+
+    /// Whether a frame of `kind` tagged `tick` or later has been heard from `neighbour`.
+    pub(crate) fn has_heard(&self, neighbour: ClusterId, kind: FrameKind, tick: u64) -> bool {
+        self.peers
+            .get(&neighbour)
+            .and_then(|peer| peer.newest(kind))
+            .is_some_and(|newest| newest >= tick)
+    }
+
+    /// Whether `neighbour` is alive and exchanging ops before the step in step with this
+    /// cluster at `tick`: its last exchange frame was of this tick or one of the two before,
+    /// so its frame of `tick` is worth waiting for. A neighbour that never sent one (the
+    /// exchange off there, or not started), or counts its ticks from another start, is not.
+    pub(crate) fn exchanges_in_step(&self, neighbour: ClusterId, tick: u64) -> bool {
+        self.peers.get(&neighbour).is_some_and(|peer| {
+            peer.status == NeighbourStatus::Alive
+                && peer
+                    .newest(FrameKind::Exchange)
+                    .is_some_and(|newest| newest <= tick && newest + 2 >= tick)
+        })
+    }
+
+    /// Whether every live neighbour exchanges in step with this cluster at `tick` (see
+    /// [`Self::exchanges_in_step`]).
+    pub(crate) fn all_alive_in_step(&self, tick: u64) -> bool {
+        self.peers.iter().all(|(&n, peer)| {
+            peer.status != NeighbourStatus::Alive || self.exchanges_in_step(n, tick)
         })
     }
 
@@ -167,14 +193,14 @@ impl Neighbours {
         lost
     }
 
-    /// Notes a frame from `neighbour` tagged `tick` (a replication frame or not), taken in at
+    /// Notes a frame of `kind` from `neighbour` tagged `tick`, taken in at
     /// this cluster's tick `now` and host time `now_ns`. Returns whether the neighbour was
     /// gone and is back.
     pub(crate) fn heard(
         &mut self,
         neighbour: ClusterId,
         tick: u64,
-        replication: bool,
+        kind: FrameKind,
         now: u64,
         now_ns: u64,
     ) -> bool {
@@ -184,17 +210,12 @@ impl Neighbours {
         let back = peer.status.is_gone();
         if back {
             // Back, perhaps restarted with a lower tick: its ticks count afresh.
-            peer.newest_replication = None;
-            peer.newest_events = None;
+            peer.newest = [None; FrameKind::COUNT];
         }
         peer.status = NeighbourStatus::Alive;
         peer.heard_at = now;
         peer.heard_ns = now_ns;
-        let newest = if replication {
-            &mut peer.newest_replication
-        } else {
-            &mut peer.newest_events
-        };
+        let newest = &mut peer.newest[kind as usize];
         *newest = Some(newest.map_or(tick, |t| t.max(tick)));
         back
     }
@@ -229,10 +250,9 @@ impl Neighbours {
     /// Whether a frame of a live `neighbour` is tagged no later than one of its frames of the
     /// same kind taken before: a sender publishes one per tick, in order, so it is a replay (or
     /// a forgery of a tick already seen).
-    pub(crate) fn replayed(&self, neighbour: ClusterId, tick: u64, replication: bool) -> bool {
+    pub(crate) fn replayed(&self, neighbour: ClusterId, tick: u64, kind: FrameKind) -> bool {
         self.peers.get(&neighbour).is_some_and(|peer| {
-            peer.status == NeighbourStatus::Alive
-                && peer.newest(replication).is_some_and(|n| tick <= n)
+            peer.status == NeighbourStatus::Alive && peer.newest(kind).is_some_and(|n| tick <= n)
         })
     }
 
@@ -259,8 +279,11 @@ impl Neighbours {
             let elapsed = (now_ns.saturating_sub(peer.heard_ns) as f64 / dt_ns) as u64;
             peer.status == NeighbourStatus::Alive
                 && peer
-                    .newest_replication
-                    .max(peer.newest_events)
+                    .newest
+                    .iter()
+                    .copied()
+                    .max()
+                    .flatten()
                     .is_some_and(|newest| {
                         tick > newest
                             .saturating_add(elapsed)

@@ -70,18 +70,30 @@ fn issued(op: PhysicsOp, numbers: &mut Numbers, tick: u64) -> RoutedOp {
 #[derive(Debug, Default)]
 pub(crate) struct Routing {
     outbound: Outbound<RoutedOp>,
+    /// Impulses game code gave this cluster's own bodies this tick, for the exchange.
+    own_writes: Vec<PhysicsOp>,
 }
 
 impl Routing {
     /// The writes game code makes this tick, numbered from `numbers`, queued for their owners
-    /// among `neighbours`.
+    /// among `neighbours`; with `exchange`, the impulses it gives this cluster's own bodies
+    /// are noted too, for [`Routing::own_writes`].
     pub(crate) fn outbox<'a>(
         &'a mut self,
         numbers: &'a mut Numbers,
         neighbours: &'a [ClusterId],
         tick: u64,
+        exchange: bool,
     ) -> Outbox<'a> {
-        Outbox::new(&mut self.outbound, numbers, neighbours, tick)
+        self.own_writes.clear();
+        let own = exchange.then_some(&mut self.own_writes);
+        Outbox::new(&mut self.outbound, numbers, neighbours, tick, own)
+    }
+
+    /// The impulses game code gave this cluster's own bodies this tick (noted when the outbox
+    /// was opened with `exchange`).
+    pub(crate) fn own_writes(&self) -> &[PhysicsOp] {
+        &self.own_writes
     }
 
     /// Everything queued for this tick's frames.

@@ -12,6 +12,9 @@ pub(crate) struct Outbox<'a> {
     numbers: &'a mut Numbers,
     neighbours: &'a [ClusterId],
     tick: u64,
+    /// Where impulses game code gives this cluster's own bodies are noted (for the exchange),
+    /// if anywhere.
+    own_writes: Option<&'a mut Vec<PhysicsOp>>,
 }
 
 impl<'a> Outbox<'a> {
@@ -20,12 +23,14 @@ impl<'a> Outbox<'a> {
         numbers: &'a mut Numbers,
         neighbours: &'a [ClusterId],
         tick: u64,
+        own_writes: Option<&'a mut Vec<PhysicsOp>>,
     ) -> Self {
         Self {
             outbound,
             numbers,
             neighbours,
             tick,
+            own_writes,
         }
     }
 }
@@ -41,5 +46,13 @@ impl WriteRouter for Outbox<'_> {
         self.outbound
             .queue(owner, super::issued(op, self.numbers, self.tick));
         Ok(())
+    }
+
+    fn applied(&mut self, op: &PhysicsOp) {
+        // Impulses add up, so a neighbour can show them on its proxy whatever else moved it;
+        // the other writes reach its proxies with the next replicated state.
+        if let (Some(own), PhysicsOp::Impulse { .. }) = (self.own_writes.as_deref_mut(), op) {
+            own.push(*op);
+        }
     }
 }

@@ -202,13 +202,29 @@ pub struct SeamImpulseReport {
     pub tick: u64,
 }
 
-/// What one cluster sends on `physics_events:<destination>` each tick.
+/// When in its sender's tick a [`PhysicsEventsFrame`] was published.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Stage {
+    /// After the step, tagged with the tick the step reached: answers, contact reports, seam
+    /// impulses, and ops that missed the exchange (forwarded, sent again).
+    #[default]
+    AfterStep,
+    /// Before the step (the exchange), tagged with the tick being run: the ops game code wrote
+    /// this tick on the destination's entities, for it to apply in the same step, and the
+    /// writes game code made on the sender's own bodies, for the destination's proxies of them.
+    BeforeStep,
+}
+
+/// What one cluster sends on `physics_events:<destination>`: each tick one frame before its
+/// step and one after (see [`Stage`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PhysicsEventsFrame {
     /// The sending cluster.
     pub from: ClusterId,
-    /// Its tick.
+    /// Its tick: the tick being run before the step, the tick reached after it.
     pub tick: u64,
+    /// Before or after the sender's step.
+    pub stage: Stage,
     /// When the frame was handed to the transport: host monotonic clock, nanoseconds.
     pub published_ns: u64,
     /// Writes on entities the destination owns.
@@ -224,7 +240,31 @@ pub struct PhysicsEventsFrame {
     /// destination's entities gave the sender's bodies in its last step.
     #[serde(deserialize_with = "grow_as_decoded")]
     pub impulses: Vec<SeamImpulseReport>,
+    /// Writes game code made this tick on the sender's own bodies (before the step only): the
+    /// destination shows them on its coupled proxies of those bodies, so both worlds step
+    /// them pushed.
+    #[serde(deserialize_with = "grow_as_decoded")]
+    pub own_writes: Vec<PhysicsOp>,
     /// The sender stops on purpose after this frame: it is not to be taken for dead, and what
     /// it owns leaves with it (see `seam_proxy::Cluster::leave`).
     pub leaving: bool,
+}
+
+impl PhysicsEventsFrame {
+    /// A frame from `from` at `tick`, at `stage`, published at `published_ns`, carrying
+    /// nothing yet.
+    pub fn empty(from: ClusterId, tick: u64, stage: Stage, published_ns: u64) -> Self {
+        Self {
+            from,
+            tick,
+            stage,
+            published_ns,
+            ops: Vec::new(),
+            acks: Vec::new(),
+            contacts: Vec::new(),
+            impulses: Vec::new(),
+            own_writes: Vec::new(),
+            leaving: false,
+        }
+    }
 }

@@ -22,9 +22,9 @@ pub use replication::{
 
 pub use codec::{WireError, decode, encode, encode_into, encoded_len};
 pub use events::{
-    ContactReport, OpAck, PhysicsEventsFrame, PhysicsOp, RoutedOp, SeamImpulseReport,
+    ContactReport, OpAck, PhysicsEventsFrame, PhysicsOp, RoutedOp, SeamImpulseReport, Stage,
 };
 pub use state::{BodySpec, EntityState, Motion, ReplicationFrame, Shape};
 
 /// The format version every frame starts with.
-pub const WIRE_VERSION: u8 = 7;
+pub const WIRE_VERSION: u8 = 8;

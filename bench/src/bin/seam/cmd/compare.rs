@@ -61,6 +61,7 @@ impl Knobs {
             authority: self.model.authority,
             replication_interval: self.model.replication_interval.max(1),
             coupling: !self.model.no_coupling,
+            exchange: !self.model.no_exchange,
             quantize: self.model.quantize,
             keyframe_ticks: self.model.keyframe_ticks,
             spread: self.spread,

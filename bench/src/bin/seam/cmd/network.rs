@@ -22,10 +22,9 @@ pub(crate) struct NetworkArgs {
     /// Ticks per second of the pods.
     #[arg(long, default_value_t = 60.0)]
     rate: f64,
-    /// Tick both pods at the same moment (default: staggered by half a period, as `seam
-    /// run`), which makes every routed op wait a tick whatever the delay.
+    /// Stagger the two pods by half a period (default: in phase, as `seam run`).
     #[arg(long)]
-    in_phase: bool,
+    stagger: bool,
     /// The Redis server between hosts (on this machine's loopback).
     #[arg(long, default_value = "redis://127.0.0.1:6379")]
     redis: String,
@@ -48,7 +47,7 @@ pub(crate) fn main(args: &NetworkArgs) -> BenchResult<()> {
         delays_ms: args.delays_ms.clone(),
         jitter_ms: args.jitter_ms,
         rate: args.rate,
-        in_phase: args.in_phase,
+        stagger: args.stagger,
         redis: expand_transport(&args.redis),
         node_command: node_command()?,
     };

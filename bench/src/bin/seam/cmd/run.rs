@@ -40,10 +40,12 @@ pub(crate) struct RunArgs {
     layers: u32,
     #[command(flatten)]
     hosts: HostsArgs,
-    /// Tick every pod at the same moment (default: pod i of n ticks i/n of a period later,
-    /// so co-hosted pods do not all want a core at once).
+    /// Pod i of n ticks i/n of a period after pod 0, so co-hosted pods do not all want a core
+    /// at once (default: every pod ticks at the same moment, which the exchange of routed ops
+    /// before the step needs to land them on the tick they were written; staggered, the
+    /// exchange waits for each later neighbour up to a quarter of a tick and mostly misses).
     #[arg(long)]
-    in_phase: bool,
+    stagger: bool,
     /// Do not judge the run against one world. By default, once the pods are done, the same
     /// scene runs here for as many ticks as one world and again as its noise floor (bodies
     /// inserted in reverse order, each dynamic one moved 1 µm), and the report says how far
@@ -114,10 +116,11 @@ impl RunArgs {
             authority: model.authority,
             replication_interval: model.replication_interval,
             coupling: !model.no_coupling,
+            exchange: !model.no_exchange,
             quantize: model.quantize,
             keyframe_ticks: model.keyframe_ticks,
             layers: self.layers,
-            in_phase: self.in_phase,
+            stagger: self.stagger,
             // The flips are what its hand-offs are judged by.
             track_flips: !self.no_judge,
             hosts: HostsPlan {

@@ -72,7 +72,7 @@ pub(crate) fn main(args: &SweepArgs) -> BenchResult<()> {
         rate: args.rate,
         node_command: node_command()?,
         hosts: HostsPlan::default(),
-        in_phase: false,
+        stagger: false,
     };
     let results = seam_bench::sweep::run(&scenes, &grid, args.ticks, &free, trial_progress())?;
     for path in seam_bench::sweep::write(&results, &args.out)? {
