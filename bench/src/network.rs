@@ -48,6 +48,8 @@ pub struct NetworkPlan {
     pub rate: f64,
     /// Stagger the pods over the period instead of ticking them in phase.
     pub stagger: bool,
+    /// Routed ops exchanged before the step (see `seam_proxy::ClusterConfig::exchange`).
+    pub exchange: bool,
     /// The Redis server between hosts.
     pub redis: String,
     /// The command that starts a pod (`[seam, "node"]`).
@@ -82,7 +84,10 @@ pub fn run(
             let (result, simulated_as) = run_free_trial_on_hosts(
                 path,
                 scene,
-                &TrialSettings::default(),
+                &TrialSettings {
+                    exchange: plan.exchange,
+                    ..TrialSettings::default()
+                },
                 "shm",
                 &free,
                 &run_id,

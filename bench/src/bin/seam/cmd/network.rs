@@ -25,6 +25,11 @@ pub(crate) struct NetworkArgs {
     /// Stagger the two pods by half a period (default: in phase, as `seam run`).
     #[arg(long)]
     stagger: bool,
+    /// Routed ops go after the step and land a tick late (default: exchanged before it, as
+    /// `seam run`; a delay past the quarter tick each pod waits for the other's misses that
+    /// too).
+    #[arg(long)]
+    no_exchange: bool,
     /// The Redis server between hosts (on this machine's loopback).
     #[arg(long, default_value = "redis://127.0.0.1:6379")]
     redis: String,
@@ -48,6 +53,7 @@ pub(crate) fn main(args: &NetworkArgs) -> BenchResult<()> {
         jitter_ms: args.jitter_ms,
         rate: args.rate,
         stagger: args.stagger,
+        exchange: !args.no_exchange,
         redis: expand_transport(&args.redis),
         node_command: node_command()?,
     };
