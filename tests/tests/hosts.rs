@@ -306,6 +306,7 @@ fn network_trials_judge_every_hand_off() {
         jitter_ms: 0.0,
         rate: 240.0,
         stagger: false,
+        exchange: true,
         redis: redis_url(),
         node_command: vec![NODE.into()],
     };
