@@ -155,13 +155,14 @@
 //!
 //! Who hands what over is decided by game code ([`Cluster::transfer_authority`]) and by the
 //! cluster's [`AuthorityPolicy`], asked at every replication frame (`ClusterConfig::authority`;
-//! [`Cluster::set_authority_policy`] plugs in an affinity system). The default, [`Spatial`],
-//! makes authority follow entities through the world: a dynamic body whose centre, where it
-//! will be by the next frame, is more than a margin (0.25 m) past the seam, inside a live
-//! neighbour's region, is handed to that neighbour. Fast bodies are handed over before the
-//! step that crosses, so the cluster they enter simulates them against its own bodies; the
-//! chain keeps up while a body moves less than a region's width between frames (see
-//! `authority`).
+//! [`Cluster::set_authority_policy`] plugs in an affinity system). The default, [`Group`],
+//! makes authority follow entities through the world as [`Spatial`] does — a dynamic body
+//! whose centre, where it will be by the next frame, is more than a margin (0.25 m) past the
+//! seam, inside a live neighbour's region, is handed to that neighbour — and gives bodies in
+//! sustained contact where three or more clusters' bodies meet (a stack on a corner point) one
+//! owner, handed as a group. Fast bodies are handed over before the step that crosses, so the
+//! cluster they enter simulates them against its own bodies; the chain keeps up while a body
+//! moves less than a region's width between frames (see `authority`).
 //!
 //! # Untrusted input
 //!
@@ -251,8 +252,8 @@
 //!   - `delivery` — at least once, applied once, for ops and contact reports alike.
 //! - `events` — [`ClusterEvent`], the one stream every part emits on, and its consumers:
 //!   [`ClusterStats`], [`LedgerEntry`]; [`OpTiming`].
-//! - `authority` — who should own an entity: [`AuthorityPolicy`], the built-in [`Spatial`]
-//!   policy, [`AuthorityMode`]; who adopts a dead neighbour's entities.
+//! - `authority` — who should own an entity: [`AuthorityPolicy`], the built-in [`Group`] and
+//!   [`Spatial`] policies, [`AuthorityMode`]; who adopts a dead neighbour's entities.
 //! - `config` — [`ClusterConfig`], [`ProxyMode`].
 //! - `world` — [`Region`], [`WorldCluster`] and [`world_map`].
 //! - `runtime` — [`Schedule`] (a free-running cluster's ticks on the host's clock, as a pod
@@ -281,7 +282,8 @@ mod runtime;
 mod world;
 
 pub use authority::{
-    AuthorityMode, AuthorityPolicy, AuthorityView, NeighbourView, Spatial, SpatialSettings,
+    AuthorityMode, AuthorityPolicy, AuthorityView, Group, GroupSettings, NeighbourView, Spatial,
+    SpatialSettings, Touching,
 };
 pub use bridge::{Bridge, BridgeRoutes, DirectionCounters, DirectionStats};
 pub use channels::{physics_events, replication};

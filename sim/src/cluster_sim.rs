@@ -11,6 +11,7 @@ use crate::error::SimError;
 use crate::handle::{PhysicsHandle, TickContext};
 use crate::joints::Joints;
 use crate::router::WriteRouter;
+use crate::touching;
 use crate::validate;
 use crate::wire::{ClusterId, EntityId, EntityState, IdMap, Motion, PhysicsOp};
 
@@ -294,13 +295,7 @@ impl ClusterSim {
     /// Applies a write to an entity in this world, whoever owns it (the owner applying routed
     /// ops uses this). Validated first: an invalid op changes nothing.
     pub fn apply_op(&mut self, op: &PhysicsOp) -> Result<(), SimError> {
-        validate::op(op)?;
-        let entry = self
-            .entities
-            .get(&op.target())
-            .ok_or(SimError::UnknownEntity(op.target()))?;
-        body::apply_op(&mut self.world, &mut self.stale, entry, op);
-        Ok(())
+        self.apply_op_late(op, 0)
     }
 
     /// As [`Self::apply_op`] for a write issued `missed` steps ago (a push routed from
@@ -371,6 +366,12 @@ impl ClusterSim {
     /// the others' count). The tick is the only thing it changes.
     pub fn resume_at(&mut self, tick: u64) {
         self.tick = tick;
+    }
+
+    /// The pairs of bodies touching now around the seam, each with its owner (see
+    /// `crate::touching`): groups grown from each proxy that moves, up to `budget` bodies each.
+    pub fn touching(&self, budget: usize) -> Vec<(EntityId, ClusterId, EntityId, ClusterId)> {
+        touching::around_proxies(&self.world, &self.entities, self.config.cluster_id, budget)
     }
 
     /// What the contacts of the last step between bodies simulated here and coupled proxies

@@ -52,6 +52,7 @@
 //! - [`box_grid`] — boxes filed in a grid, for overlap queries without Rapier.
 //! - [`coupling`] — proxies that meet this cluster's bodies with their entity's own mass, so a
 //!   contact across the seam pushes both ways.
+//! - `touching` — which bodies touch around the seam (what a group authority policy binds).
 //! - `validate` — NaN, infinity, rotation and shape checks before anything reaches Rapier.
 //! - `error` — [`SimError`].
 //!
@@ -69,6 +70,7 @@ mod error;
 mod handle;
 mod joints;
 mod router;
+mod touching;
 mod validate;
 pub mod wire;
 

@@ -300,9 +300,9 @@ fn run_reference(
 type TruthAt = std::collections::HashMap<(EntityId, u64), ([f32; 3], [f32; 3])>;
 
 /// Judges every flip the pods recorded as `seam compare` judges a hand-off: for a body that was
-/// within [`super::TRACKED_M`] of its single-world copy when its old owner last had it, how far
-/// its motion from that state to its new owner's first state departs from the single world's
-/// over the same ticks (position and velocity). Bodies first owned with no owner before them
+/// within [`super::TRACKED_M`] and [`super::TRACKED_MPS`] of its single-world copy when its old
+/// owner last had it, how far its motion from that state to its new owner's first state
+/// departs from the single world's over the same ticks (position and velocity). Bodies first owned with no owner before them
 /// (spawned, or adopted from a pod whose records died with it) are not hand-offs; hand-offs
 /// of bodies already off track, or gone from the single world, are counted as untracked.
 fn judge_flips(nodes: &[crate::node::NodeReport], truth_at: &TruthAt, accuracy: &mut Accuracy) {
@@ -338,7 +338,9 @@ fn judge_flips(nodes: &[crate::node::NodeReport], truth_at: &TruthAt, accuracy: 
             untracked += 1;
             continue;
         };
-        if distance(before.position, truth_before.0) > super::TRACKED_M {
+        if distance(before.position, truth_before.0) > super::TRACKED_M
+            || distance(before.linvel, truth_before.1) > super::TRACKED_MPS
+        {
             untracked += 1;
             continue;
         }

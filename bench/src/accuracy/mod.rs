@@ -28,7 +28,7 @@ use crate::latency::LatencyRecorder;
 use crate::node::AuthorityArgs;
 use crate::pod::{OpStages, Part, Pod, PodSettings};
 use crate::scene::{Event, Scene};
-pub use compare::{Accuracy, Comparison, ONSET_M, TRACKED_M};
+pub use compare::{Accuracy, Comparison, ONSET_M, TRACKED_M, TRACKED_MPS};
 pub use floor::{Basis, FloorRun, PERTURBATION_M, beyond_floor};
 pub use free::{FreeRunning, run_free_trial, run_free_trial_on_hosts};
 pub use one_world::{AgainstOneWorld, JudgedRun, judged_document};

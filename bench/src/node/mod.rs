@@ -23,7 +23,9 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use seam_proxy::{AuthorityMode, ProxyMode, Schedule, SpatialSettings, monotonic_ns};
+use seam_proxy::{
+    AuthorityMode, GroupSettings, ProxyMode, Schedule, SpatialSettings, monotonic_ns,
+};
 use seam_sim::wire::StateEncoding;
 
 use crate::error::{BenchError, BenchResult, Context};
@@ -58,10 +60,14 @@ impl From<ProxyModeArg> for ProxyMode {
 pub enum AuthorityArg {
     /// Authority follows entities: an entity past a seam by the margin is handed to the
     /// cluster whose region it is in (`seam_proxy::Spatial`), besides the scene's hand-offs.
-    #[default]
     Spatial,
     /// Only the scene's hand-off events move entities.
     Scripted,
+    /// Bodies in sustained contact (a stack, a pile, riders on a platform) share one owner,
+    /// handed as a group, where bodies of `--group-min-owners` clusters meet; the rest as
+    /// `spatial` (`seam_proxy::Group`; the default).
+    #[default]
+    Group,
 }
 
 impl AuthorityArg {
@@ -70,6 +76,7 @@ impl AuthorityArg {
         match self {
             AuthorityArg::Spatial => "spatial",
             AuthorityArg::Scripted => "scripted",
+            AuthorityArg::Group => "group",
         }
     }
 }
@@ -78,10 +85,16 @@ impl AuthorityArg {
 /// node`, `run` and `compare` share.
 #[derive(Debug, Clone, Copy, PartialEq, clap::Args, serde::Serialize)]
 pub struct AuthorityArgs {
-    /// Which hand-offs the clusters make: `spatial` (authority follows entities into the region
-    /// they are in, and the scene's hand-offs) or `scripted` (the scene's hand-offs only).
-    #[arg(long, value_enum, default_value_t = AuthorityArg::Spatial)]
+    /// Which hand-offs the clusters make: `group` (authority follows entities into the region
+    /// they are in, and bodies in sustained contact where three or more clusters' bodies meet
+    /// share one owner), `spatial` (authority follows entities, no groups) or `scripted` (the
+    /// scene's hand-offs only). Every kind makes the scene's hand-offs too.
+    #[arg(long, value_enum, default_value_t = AuthorityArg::Group)]
     pub authority: AuthorityArg,
+    /// Group: the fewest clusters whose bodies a group of touching bodies must hold before it
+    /// is given one owner (2: every group across a seam, riders on a platform included).
+    #[arg(long, default_value_t = GroupSettings::default().min_owners)]
+    pub group_min_owners: usize,
     /// Spatial: how far past a seam, m, a body's centre must be (where it will be at the next
     /// replication frame) before it is handed over, and before it comes back.
     #[arg(long, default_value_t = SpatialSettings::default().margin)]
@@ -95,7 +108,8 @@ impl Default for AuthorityArgs {
     fn default() -> Self {
         let spatial = SpatialSettings::default();
         Self {
-            authority: AuthorityArg::Spatial,
+            authority: AuthorityArg::Group,
+            group_min_owners: GroupSettings::default().min_owners,
             handoff_margin: spatial.margin,
             handoff_dwell: spatial.dwell_ticks,
         }
@@ -119,6 +133,14 @@ impl AuthorityArgs {
                 dwell_ticks: self.handoff_dwell,
             }),
             AuthorityArg::Scripted => AuthorityMode::Scripted,
+            AuthorityArg::Group => AuthorityMode::Group(GroupSettings {
+                spatial: SpatialSettings {
+                    margin: self.handoff_margin,
+                    dwell_ticks: self.handoff_dwell,
+                },
+                min_owners: self.group_min_owners,
+                ..GroupSettings::default()
+            }),
         }
     }
 
@@ -131,6 +153,8 @@ impl AuthorityArgs {
             self.handoff_margin.to_string(),
             "--handoff-dwell".into(),
             self.handoff_dwell.to_string(),
+            "--group-min-owners".into(),
+            self.group_min_owners.to_string(),
         ]
     }
 
@@ -140,6 +164,10 @@ impl AuthorityArgs {
         let spatial = SpatialSettings::default();
         match self.authority {
             AuthorityArg::Scripted => "scripted".into(),
+            AuthorityArg::Group if self.group_min_owners == GroupSettings::default().min_owners => {
+                "group".into()
+            }
+            AuthorityArg::Group => format!("group (min owners {})", self.group_min_owners),
             AuthorityArg::Spatial
                 if self.handoff_margin == spatial.margin
                     && self.handoff_dwell == spatial.dwell_ticks =>

@@ -87,7 +87,7 @@ impl PodSettings {
             transport: transport.into(),
             run_id: run_id.into(),
             proxy_mode: ProxyMode::Fixed,
-            authority: AuthorityMode::spatial(),
+            authority: AuthorityMode::default(),
             replication_interval: 1,
             coupling: true,
             exchange: true,

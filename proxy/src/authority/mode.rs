@@ -1,5 +1,6 @@
 //! How a cluster is configured to decide hand-offs: [`AuthorityMode`].
 
+use super::group::GroupSettings;
 use super::spatial::SpatialSettings;
 
 /// How a cluster decides hand-offs besides those game code asks for.
@@ -7,9 +8,14 @@ use super::spatial::SpatialSettings;
 pub enum AuthorityMode {
     /// Only scripted hand-offs ([`Cluster::transfer_authority`](crate::Cluster)).
     Scripted,
-    /// [`Spatial`](super::Spatial) with these settings (the default). Needs the neighbours' regions from
+    /// [`Spatial`](super::Spatial) with these settings. Needs the neighbours' regions from
     /// `ClusterConfig::world`; without them nothing is handed over.
     Spatial(SpatialSettings),
+    /// [`Group`](super::Group) with these settings (the default, with
+    /// [`GroupSettings::default`]): bodies in sustained contact share one owner where three
+    /// or more clusters' bodies meet, the rest follow the spatial rule. Needs the world map as
+    /// `Spatial` does.
+    Group(GroupSettings),
     /// A policy set with [`Cluster::set_authority_policy`](crate::Cluster) (none set: scripted).
     Custom,
 }
@@ -23,6 +29,6 @@ impl AuthorityMode {
 
 impl Default for AuthorityMode {
     fn default() -> Self {
-        AuthorityMode::spatial()
+        AuthorityMode::Group(GroupSettings::default())
     }
 }

@@ -23,6 +23,24 @@ pub struct AuthorityView<'a> {
     /// The entities it owns, with their states (as its replication frame carries them) and
     /// roles.
     pub owned: &'a [(EntityState, BodyRole)],
+    /// The bodies touching in its world now around its neighbours' moving bodies, each pair
+    /// with their owners (empty unless the policy asks for them,
+    /// [`AuthorityPolicy::touching_budget`]).
+    pub touching: &'a [Touching],
+}
+
+/// Two bodies touching in a cluster's world (a contact with points), bodies that move (dynamic
+/// or moved by their owner) and not scenery, with the owner each is known by there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Touching {
+    /// One body.
+    pub a: EntityId,
+    /// Its owner.
+    pub a_owner: ClusterId,
+    /// The other.
+    pub b: EntityId,
+    /// Its owner.
+    pub b_owner: ClusterId,
 }
 
 /// A neighbour, as a policy sees it.
@@ -40,4 +58,11 @@ pub struct NeighbourView {
 pub trait AuthorityPolicy {
     /// Appends to `handoffs` the entities to hand over in this frame, and to whom.
     fn decide(&mut self, view: &AuthorityView<'_>, handoffs: &mut Vec<(EntityId, ClusterId)>);
+
+    /// How many bodies the policy wants [`AuthorityView::touching`] walked, from each of the
+    /// neighbours' bodies that move in this world, along contacts (0, the default: it does
+    /// not read it, and the contacts are not walked).
+    fn touching_budget(&self) -> usize {
+        0
+    }
 }

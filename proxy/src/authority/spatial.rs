@@ -142,6 +142,7 @@ mod tests {
             lookahead_s: 1.0 / 60.0,
             neighbours: &neighbours,
             owned,
+            touching: &[],
         };
         let mut out = Vec::new();
         policy.decide(&view, &mut out);

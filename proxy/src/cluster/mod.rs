@@ -18,7 +18,7 @@ use seam_sim::wire::{
 use seam_sim::{BodyRole, ClusterSim, SimConfig};
 use seam_transport::Transport;
 
-use crate::authority::{AuthorityMode, AuthorityPolicy, Spatial};
+use crate::authority::{AuthorityMode, AuthorityPolicy, Group, Spatial};
 use crate::channels;
 use crate::clock::monotonic_ns;
 use crate::config::ClusterConfig;
@@ -148,6 +148,7 @@ impl Cluster {
             predictions: Predictions::default(),
             policy: match config.authority {
                 AuthorityMode::Spatial(settings) => Some(Box::new(Spatial::new(settings))),
+                AuthorityMode::Group(settings) => Some(Box::new(Group::new(settings))),
                 AuthorityMode::Scripted | AuthorityMode::Custom => None,
             },
             retry: Retry::new(

@@ -4,7 +4,7 @@
 use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame, Stage};
 
 use super::Cluster;
-use crate::authority::AuthorityView;
+use crate::authority::{AuthorityView, Touching};
 use crate::channels;
 use crate::clock::monotonic_ns;
 use crate::error::ClusterError;
@@ -60,6 +60,21 @@ impl Cluster {
             return;
         };
         let neighbours = self.neighbours.views(&self.config);
+        let budget = policy.touching_budget();
+        let touching = if budget > 0 && !neighbours.is_empty() {
+            self.sim
+                .touching(budget)
+                .into_iter()
+                .map(|(a, a_owner, b, b_owner)| Touching {
+                    a,
+                    a_owner,
+                    b,
+                    b_owner,
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let custody: Vec<_>;
         let owned = if self.custody.is_empty() {
             owned
@@ -78,6 +93,7 @@ impl Cluster {
             lookahead_s: self.config.dt * self.config.replication_interval.max(1) as f32,
             neighbours: &neighbours,
             owned,
+            touching: &touching,
         };
         let mut handoffs = Vec::new();
         policy.decide(&view, &mut handoffs);
