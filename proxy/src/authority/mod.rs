@@ -50,8 +50,9 @@
 //! in lock-step (`seam compare SCENE --authority spatial|group [--group-min-owners N]`):
 //! `open/corner` 13.8 m RMS with the spatial rule against a floor of 3.9 m (onset tick 68
 //! against 89), 5.5 m with groups (onset 94: at the floor); every two-cluster scene the same
-//! either way; `grid` 0.318 → 0.327 m (floor 0.655), 7 → 31 hand-offs, its split tick
-//! about 7 % dearer (the contacts walked from each moving proxy every frame). Giving one owner
+//! either way; `grid` 0.318 → 0.327 m (floor 0.655), its split tick about 10 % dearer
+//! (2.52–2.59 times one world's against 2.31–2.33: the contacts walked from each moving proxy
+//! every frame, and 32 hand-offs against 7). Giving one owner
 //! to every group across a seam (`min_owners` 2) helps no bundled scene further and costs
 //! `grid` 800 hand-offs of balls in its piles, `seam-stack` 0.5 → 1.2 cm.
 //!
