@@ -59,7 +59,8 @@ fn trial(scene: &Scene, settings: TrialSettings) -> Accuracy {
 const BEYOND_FLOOR: &[(&str, &str)] = &[("dominoes", "onset")];
 
 /// Default settings on every bundled scene: at its noise floor (but for `BEYOND_FLOOR`, by the
-/// figure named), no body escapes, none has two owners or none, every
+/// figure named), no body escapes, none has two owners or none, none but a shot is handed to
+/// a cluster with no proxy of it, every
 /// judged hand-off lands within 1 cm and 0.05 m/s of the single world's motion, the position
 /// error is at most 1.25 times that of proxies for everything (so interest management costs
 /// no accuracy a scene needs), and the momentum error is within 5 % of Σm|v| beyond the single
@@ -113,6 +114,14 @@ fn bundled_scenes_hold_at_default_settings() {
             assert!(
                 default.position_rms_m <= 0.05,
                 "{name}: floor scene within 5 cm: {default:?}"
+            );
+        }
+        if default.hits_reference == 0 && default.hits_split == 0 {
+            // Only a shot fired and handed in one frame is handed to a cluster with no proxy
+            // of it (see `seam_proxy::authority`).
+            assert_eq!(
+                default.handoffs_without_proxy, 0,
+                "{name}: every hand-off to a cluster that models the body: {default:?}"
             );
         }
         if let Some(recall) = default.hit_recall {

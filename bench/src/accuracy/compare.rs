@@ -65,6 +65,10 @@ pub struct Accuracy {
     /// tick differs from the copy's for reasons the hand-off has no part in (it meets other
     /// bodies, elsewhere, or with another speed), so the flip is not judged for a jump.
     pub handoffs_untracked: u64,
+    /// Of those, flips to a cluster that held no proxy of the body (it was spawned there from
+    /// the hand-off's state; `ClusterStats::handoffs_in_without_proxy`).
+    #[serde(default)]
+    pub handoffs_without_proxy: u64,
     /// Largest position discontinuity at a judged flip: how far the new owner's motion over
     /// the flip tick departs from the single world's, m.
     pub handoff_jump_position_m: f64,

@@ -261,6 +261,15 @@ fn tick_lockstep(pods: &mut [Pod]) -> BenchResult<Vec<u64>> {
     Ok(took)
 }
 
+/// `accuracy` with the hand-offs the `pods` took with no proxy of the body counted in.
+fn without_proxy(mut accuracy: Accuracy, pods: &[Pod]) -> Accuracy {
+    accuracy.handoffs_without_proxy = pods
+        .iter()
+        .map(|pod| pod.cluster().stats().handoffs_in_without_proxy)
+        .sum();
+    accuracy
+}
+
 /// The pods' op stages and counters, summed.
 fn merged(pods: &[Pod]) -> (OpStages, seam_proxy::ClusterStats) {
     let mut ops = OpStages::default();
@@ -351,7 +360,7 @@ pub fn run_recorded_trial(
         position_basis: "every tick",
         settings: *settings,
         ticks: scene.ticks,
-        accuracy: comparison.finish(|id| reference.entity_name(id)),
+        accuracy: without_proxy(comparison.finish(|id| reference.entity_name(id)), &pods),
         floor: floor.finish(&reference),
         cost: lockstep_cost(
             &pods,
@@ -441,8 +450,8 @@ fn trial_text(r: &TrialResult) -> String {
          precision {}, mean tick offset {:.2}\n\
          \x20 momentum error       max {:.4} kg·m/s, mean {:.5} of Σm|v| (the single world's own \
          drift: {:.5})\n\
-         \x20 hand-offs            {} ({} of bodies already off track, not judged): largest jump \
-         {:.5} m, {:.5} m/s{}\n\
+         \x20 hand-offs            {} ({} of bodies already off track, not judged; {} to a cluster with \
+         no proxy of the body): largest jump {:.5} m, {:.5} m/s{}\n\
          \x20 ownership            {} body-ticks with two owners, {} lost, {} in transit \
          (hand-off read next tick); {} bodies escaped (fell through or flew off where the \
          single world's did not)\n\n\
@@ -499,6 +508,7 @@ fn trial_text(r: &TrialResult) -> String {
         a.momentum_drift_rel,
         a.handoffs,
         a.handoffs_untracked,
+        a.handoffs_without_proxy,
         a.handoff_jump_position_m,
         a.handoff_jump_velocity_mps,
         a.worst_handoff

@@ -56,6 +56,18 @@
 //! to every group across a seam (`min_owners` 2) helps no bundled scene further and costs
 //! `grid` 800 hand-offs of balls in its piles, `seam-stack` 0.5 → 1.2 cm.
 //!
+//! A body is handed to a cluster that already holds a proxy of it, but for one case, on
+//! purpose: the spatial rule hands a body whose centre will be in the neighbour's region by
+//! the next frame, so the neighbour's interest (its region grown by its spread, and each
+//! extent swept to the next frame) held it in the frame before — unless the body is new: a
+//! shot fired this tick that crosses by the next frame is handed in its first frame, since
+//! waiting a frame for the neighbour to model it would have the shooter simulate the crossing
+//! step against proxies. The taker then spawns it from the hand-off's state, counted in
+//! `ClusterStats::handoffs_in_without_proxy` (and in `seam compare`'s hand-offs line):
+//! lock-step at default settings, `gallery` 59 (its shots), `crossfire` 1 (its 400 m/s shot),
+//! `open/corner` 1, every other bundled scene 0. (The giver cannot check the taker's interest:
+//! its spread and watched boxes are the taker's own.)
+//!
 //! Who adopts a dead neighbour's entities is the other authority rule (`adoption`).
 
 pub(crate) mod adoption;

@@ -137,6 +137,14 @@ pub enum ClusterEvent {
         /// How many.
         count: u64,
     },
+    /// An entity was handed to this cluster while it held no proxy of it (it is spawned from
+    /// the hand-off's state; see `crate::authority`).
+    HandoffWithoutProxy {
+        /// The entity.
+        entity: EntityId,
+        /// Its old owner.
+        from: ClusterId,
+    },
     /// Free-running, a live neighbour's exchange frame of this tick did not come within
     /// `ClusterConfig::neighbour_wait_ticks`: its ops are applied a tick late.
     ExchangeMissed {

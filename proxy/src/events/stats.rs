@@ -97,6 +97,9 @@ pub struct ClusterStats {
     /// Free-running, exchange frames of a live neighbour that did not come in time for this
     /// cluster's step (their ops applied a tick late; see `ClusterConfig::exchange`).
     pub exchanges_missed: u64,
+    /// Entities handed to this cluster while it held no proxy of them (taken from the
+    /// hand-off's state, with nothing around them modelled before).
+    pub handoffs_in_without_proxy: u64,
     /// Free-running, ticks that started without a live neighbour's frames of the step before
     /// (it was later than `ClusterConfig::neighbour_wait_ticks`).
     pub steps_missed: u64,
@@ -228,6 +231,7 @@ impl ClusterStats {
             E::ProxiesCoupled { count } => self.proxies_coupled += count,
             E::ImpulsesPredicted { count } => self.impulses_predicted += count,
             E::ExchangeMissed { .. } => self.exchanges_missed += 1,
+            E::HandoffWithoutProxy { .. } => self.handoffs_in_without_proxy += 1,
             E::StepMissed { .. } => self.steps_missed += 1,
             E::OwnWriteRejected { .. } => self.own_writes_rejected += 1,
             E::OpSent { .. }

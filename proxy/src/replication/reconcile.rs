@@ -148,11 +148,16 @@ impl Reconcile<'_> {
             None if state.cluster_id == me && self.handoffs.was_released(state.id, state.epoch) => {
                 Ok(())
             }
-            // Handed to this cluster an entity it had no proxy of: it starts as the body.
+            // Handed to this cluster an entity it had no proxy of: it starts as the body
+            // (counted: its surroundings here were not modelled around it before).
             None if state.cluster_id == me => {
                 self.sim
                     .spawn(state, owner_role(state))
                     .map_err(|_| Refused)?;
+                self.events.emit(ClusterEvent::HandoffWithoutProxy {
+                    entity: state.id,
+                    from,
+                });
                 self.taken(state.id, from);
                 Ok(())
             }
