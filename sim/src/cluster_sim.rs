@@ -370,7 +370,7 @@ impl ClusterSim {
 
     /// The pairs of bodies touching now around the seam, each with its owner (see
     /// `crate::touching`): groups grown from each proxy that moves, up to `budget` bodies each.
-    pub fn touching(&self, budget: usize) -> Vec<(EntityId, ClusterId, EntityId, ClusterId)> {
+    pub fn touching(&self, budget: usize) -> Vec<touching::Touching> {
         touching::around_proxies(&self.world, &self.entities, self.config.cluster_id, budget)
     }
 

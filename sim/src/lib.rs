@@ -83,4 +83,5 @@ pub use error::SimError;
 pub use handle::{PhysicsHandle, RayHit, TickContext};
 pub use joints::{JointId, JointSpec};
 pub use router::{LocalOnly, WriteOutcome, WriteRouter};
+pub use touching::Touching;
 pub use validate::check_state;

@@ -16,6 +16,28 @@ use crate::body::Entry;
 use crate::entity::BodyRole;
 use crate::wire::{ClusterId, EntityId, IdHasher, IdMap, Motion};
 
+/// Two bodies touching in a cluster's world (a contact with points), bodies that move (dynamic
+/// or moved by their owner) and not scenery, with the owner each is known by there and its
+/// velocity (a proxy's as its owner replicated it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Touching {
+    /// One body.
+    pub a: EntityId,
+    /// Its owner.
+    pub a_owner: ClusterId,
+    /// Its linear velocity, m/s.
+    pub a_linvel: [f32; 3],
+    /// The other.
+    pub b: EntityId,
+    /// Its owner.
+    pub b_owner: ClusterId,
+    /// Its linear velocity, m/s.
+    pub b_linvel: [f32; 3],
+}
+
+/// A body reached by the walk: id, owner, velocity, collider.
+type Reached = (EntityId, ClusterId, [f32; 3], ColliderHandle);
+
 /// The touching pairs reached from this world's moving proxies (`me` is this cluster), each
 /// pair once, with both owners; bodies that move only (not scenery, not Fixed bodies), at most
 /// `budget` bodies walked from each proxy.
@@ -24,16 +46,29 @@ pub(crate) fn around_proxies(
     entities: &IdMap<EntityId, Entry>,
     me: ClusterId,
     budget: usize,
-) -> Vec<(EntityId, ClusterId, EntityId, ClusterId)> {
+) -> Vec<Touching> {
+    let reached = |id: EntityId, entry: &Entry| -> Reached {
+        let linvel = if entry.info.owner == me {
+            world.bodies[entry.body].linvel().to_array()
+        } else {
+            entry.replicated.0
+        };
+        (id, entry.info.owner, linvel, entry.collider)
+    };
     let moving = |collider: ColliderHandle| {
         let id = EntityId::from_u128(world.colliders.get(collider)?.user_data);
         let entry = entities.get(&id)?;
         let info = &entry.info;
-        (info.owner != ClusterId::SCENERY && info.body.motion != Motion::Still).then_some((
-            id,
-            info.owner,
-            entry.collider,
-        ))
+        (info.owner != ClusterId::SCENERY && info.body.motion != Motion::Still)
+            .then(|| reached(id, entry))
+    };
+    let pair = |a: &Reached, b: &Reached| Touching {
+        a: a.0,
+        a_owner: a.1,
+        a_linvel: a.2,
+        b: b.0,
+        b_owner: b.1,
+        b_linvel: b.2,
     };
     let mut walked: HashSet<EntityId, BuildHasherDefault<IdHasher>> = HashSet::default();
     let mut pairs = Vec::new();
@@ -44,37 +79,38 @@ pub(crate) fn around_proxies(
         if walked.contains(&start) {
             continue;
         }
-        let mut queue = VecDeque::from([(start, entry.info.owner, entry.collider)]);
+        let mut queue = VecDeque::from([reached(start, entry)]);
         let mut left = budget.max(1);
         walked.insert(start);
-        while let Some((id, owner, collider)) = queue.pop_front() {
+        while let Some(here) = queue.pop_front() {
             if left == 0 {
                 break;
             }
             left -= 1;
-            for pair in world.contact_pairs_with(collider) {
-                if !pair.has_any_active_contact() {
+            for contact in world.contact_pairs_with(here.3) {
+                if !contact.has_any_active_contact() {
                     continue;
                 }
-                let other = if pair.collider1 == collider {
-                    pair.collider2
+                let other = if contact.collider1 == here.3 {
+                    contact.collider2
                 } else {
-                    pair.collider1
+                    contact.collider1
                 };
-                let Some((other_id, other_owner, other_collider)) = moving(other) else {
+                let Some(there) = moving(other) else {
                     continue;
                 };
-                if walked.insert(other_id) {
-                    queue.push_back((other_id, other_owner, other_collider));
-                    pairs.push((id, owner, other_id, other_owner));
-                } else if id < other_id {
+                if walked.insert(there.0) {
+                    pairs.push(pair(&here, &there));
+                    queue.push_back(there);
+                } else if here.0 < there.0 {
                     // Both walked: a pair between them is met from each side; keep one.
-                    pairs.push((id, owner, other_id, other_owner));
+                    pairs.push(pair(&here, &there));
                 }
             }
         }
     }
-    pairs.sort_unstable_by_key(|&(a, _, b, _)| if a < b { (a, b) } else { (b, a) });
-    pairs.dedup_by_key(|&mut (a, _, b, _)| if a < b { (a, b) } else { (b, a) });
+    let key = |t: &Touching| if t.a < t.b { (t.a, t.b) } else { (t.b, t.a) };
+    pairs.sort_unstable_by_key(key);
+    pairs.dedup_by_key(|t| key(t));
     pairs
 }

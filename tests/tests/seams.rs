@@ -321,4 +321,12 @@ fn four_clusters_at_a_corner_are_at_their_floor_with_groups() {
         "the spatial rule alone: {:?}",
         alone.accuracy
     );
+    // A stack toppling at the corner: groups are for bodies at rest against each other, so
+    // nothing is handed over mid-collision (before that rule: 1.02 m against a floor of 0.21).
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../bench/scenes/variants/corner-topple.toml");
+    let topple = scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let r = run_trial(&topple, &TrialSettings::default(), None).expect("corner-topple");
+    let misses = beyond_floor(&r.accuracy, &r.floor);
+    assert!(misses.is_empty(), "a toppling stack: {misses:?}");
 }

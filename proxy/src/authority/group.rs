@@ -3,11 +3,13 @@
 //!
 //! > Two bodies that have touched in this cluster's world for `form_frames` replication frames
 //! > (gaps of up to `keep_frames` allowed) are bound; bound bodies form groups (connected
-//! > components). A group of at most `max_size` bodies has one owner: the owner of its
-//! > **anchor**, its body with the smallest id. The anchor moves by the spatial rule; this
-//! > cluster hands every body of the group it owns to the anchor's owner — in the same frame
-//! > as the anchor, when it hands the anchor itself. A body in no group, or in one too large,
-//! > moves by the spatial rule.
+//! > components). A group of at most `max_size` bodies, holding bodies of at least
+//! > `min_owners` clusters, none moving faster than `rest_speed` against its **anchor** (its
+//! > body with the smallest id), has one owner: the anchor's. The anchor moves by the
+//! > spatial rule; this cluster hands every body of the group it owns to the anchor's owner —
+//! > in the same frame as the anchor, when it hands the anchor itself. A body in no such
+//! > group moves by the spatial rule; one taken over lately and moving slowly stays put for
+//! > `keep_frames`.
 //!
 //! Every cluster computes the anchor from what its own world shows, so no negotiation is
 //! needed; two clusters that see a group alike pick the same anchor, and a cluster only ever
@@ -42,6 +44,11 @@ pub struct GroupSettings {
     /// to be given one: 2 unifies every group across a seam; 3 only where three or more
     /// clusters' bodies touch (a corner), leaving a contact between two clusters to coupling.
     pub min_owners: usize,
+    /// The fastest any body of a group may move against its anchor, m/s, for the group to be
+    /// given one owner: bodies resting on each other (a stack, riders on a platform), not a
+    /// stack toppling or a pile being blown apart, whose bodies change hands mid-collision
+    /// otherwise.
+    pub rest_speed: f32,
     /// The spatial rule, for each group's anchor and every body in no group.
     pub spatial: SpatialSettings,
 }
@@ -56,6 +63,7 @@ impl Default for GroupSettings {
             keep_frames: 60,
             max_size: 16,
             min_owners: 3,
+            rest_speed: 0.5,
             spatial: SpatialSettings::default(),
         }
     }
@@ -156,26 +164,44 @@ impl Group {
 
 impl Group {
     /// The anchor of each body this cluster (`me`) owns that is in a group given one owner:
-    /// at most `max_size` bodies, of at least `min_owners` owners (`owners`, as this world
+    /// at most `max_size` bodies, of at least `min_owners` owners, none moving faster than
+    /// `rest_speed` against the anchor (owners and velocities from `touching`, as this world
     /// knows them).
-    fn anchors(&self, owners: &Map<EntityId, ClusterId>, me: ClusterId) -> Map<EntityId, EntityId> {
+    fn anchors(&self, touching: &[Touching], me: ClusterId) -> Map<EntityId, EntityId> {
+        let bodies: Map<EntityId, (ClusterId, [f32; 3])> = touching
+            .iter()
+            .flat_map(|t| {
+                [
+                    (t.a, (t.a_owner, t.a_linvel)),
+                    (t.b, (t.b_owner, t.b_linvel)),
+                ]
+            })
+            .collect();
+        let owner = |id: &EntityId| bodies.get(id).map(|b| b.0);
+        let linvel = |id: &EntityId| bodies.get(id).map_or([0.0; 3], |b| b.1);
         let mut anchor_of = Map::default();
         for group in self.groups() {
             if group.len() > self.settings.max_size {
                 continue;
             }
-            let mut group_owners: Vec<ClusterId> = group
-                .iter()
-                .filter_map(|m| owners.get(m).copied())
-                .collect();
+            let mut group_owners: Vec<ClusterId> = group.iter().filter_map(owner).collect();
             group_owners.sort_unstable();
             group_owners.dedup();
             if group_owners.len() < self.settings.min_owners {
                 continue;
             }
             let anchor = group[0];
+            let at = linvel(&anchor);
+            let resting = group.iter().all(|m| {
+                let v = linvel(m);
+                (0..3).map(|k| (v[k] - at[k]).powi(2)).sum::<f32>().sqrt()
+                    <= self.settings.rest_speed
+            });
+            if !resting {
+                continue;
+            }
             for member in group {
-                if owners.get(&member) == Some(&me) {
+                if owner(&member) == Some(me) {
                     anchor_of.insert(member, anchor);
                 }
             }
@@ -229,7 +255,7 @@ impl AuthorityPolicy for Group {
             .iter()
             .flat_map(|t| [(t.a, t.a_owner), (t.b, t.b_owner)])
             .collect();
-        let anchor_of = self.anchors(&owners, view.cluster);
+        let anchor_of = self.anchors(view.touching, view.cluster);
         let spatial = self.spatial_handoffs(view, &anchor_of, &held);
         // An anchor the spatial rule hands over takes this cluster's members of its group along.
         let anchors_handed: Map<EntityId, ClusterId> = spatial
@@ -346,8 +372,10 @@ mod tests {
         Touching {
             a: id(a.0),
             a_owner: cluster(a.1),
+            a_linvel: [0.0; 3],
             b: id(b.0),
             b_owner: cluster(b.1),
+            b_linvel: [0.0; 3],
         }
     }
 
@@ -418,6 +446,18 @@ mod tests {
             handed = decide(&mut two, 2, &owned, &pair);
         }
         assert_eq!(handed, vec![(id(20), cluster(1))]);
+    }
+
+    #[test]
+    fn a_group_moving_against_its_anchor_is_left_to_the_spatial_rule() {
+        let settings = GroupSettings::default();
+        let mut policy = Group::new(settings);
+        let owned = [body(20, 2, [0.05, 1.5, -0.05])];
+        let mut falling = corner_stack();
+        falling[1].b_linvel = [0.0, -2.0, 0.0];
+        for _ in 0..settings.form_frames + 1 {
+            assert!(decide(&mut policy, 2, &owned, &falling).is_empty());
+        }
     }
 
     #[test]

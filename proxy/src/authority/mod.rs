@@ -50,9 +50,12 @@
 //! in lock-step (`seam compare SCENE --authority spatial|group [--group-min-owners N]`):
 //! `open/corner` 13.8 m RMS with the spatial rule against a floor of 3.9 m (onset tick 68
 //! against 89), 5.5 m with groups (onset 94: at the floor); every two-cluster scene the same
-//! either way; `grid` 0.318 → 0.327 m (floor 0.655), its split tick about 10 % dearer
-//! (2.52–2.59 times one world's against 2.31–2.33: the contacts walked from each moving proxy
-//! every frame, and 32 hand-offs against 7). Giving one owner
+//! either way; `grid` 0.318 → 0.325 m (floor 0.655), its split tick about 10 % dearer
+//! (2.53–2.59 times one world's against 2.30–2.34: the contacts walked from each moving proxy
+//! every frame, and 27 hand-offs against 7). A group is given one owner only while its
+//! bodies rest against its anchor (0.5 m/s): a stack toppling at a corner handed over
+//! mid-collision ended 1.02 m from one world against a floor of 0.21 m
+//! (`bench/scenes/variants/corner-topple.toml`; 0.20 m with the rule). Giving one owner
 //! to every group across a seam (`min_owners` 2) helps no bundled scene further and costs
 //! `grid` 800 hand-offs of balls in its piles, `seam-stack` 0.5 → 1.2 cm.
 //!

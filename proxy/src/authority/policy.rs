@@ -29,19 +29,7 @@ pub struct AuthorityView<'a> {
     pub touching: &'a [Touching],
 }
 
-/// Two bodies touching in a cluster's world (a contact with points), bodies that move (dynamic
-/// or moved by their owner) and not scenery, with the owner each is known by there.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Touching {
-    /// One body.
-    pub a: EntityId,
-    /// Its owner.
-    pub a_owner: ClusterId,
-    /// The other.
-    pub b: EntityId,
-    /// Its owner.
-    pub b_owner: ClusterId,
-}
+pub use seam_sim::Touching;
 
 /// A neighbour, as a policy sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -4,7 +4,7 @@
 use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame, Stage};
 
 use super::Cluster;
-use crate::authority::{AuthorityView, Touching};
+use crate::authority::AuthorityView;
 use crate::channels;
 use crate::clock::monotonic_ns;
 use crate::error::ClusterError;
@@ -62,16 +62,7 @@ impl Cluster {
         let neighbours = self.neighbours.views(&self.config);
         let budget = policy.touching_budget();
         let touching = if budget > 0 && !neighbours.is_empty() {
-            self.sim
-                .touching(budget)
-                .into_iter()
-                .map(|(a, a_owner, b, b_owner)| Touching {
-                    a,
-                    a_owner,
-                    b,
-                    b_owner,
-                })
-                .collect()
+            self.sim.touching(budget)
         } else {
             Vec::new()
         };
