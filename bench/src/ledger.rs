@@ -25,6 +25,9 @@ pub struct LedgerFile {
 /// How a ledger file starts: the cluster whose ledger it is.
 const HEADER: &str = "# cluster ";
 
+/// How an owner line starts (written and read by [`crate::owners`]; [`follow`] skips them).
+pub const OWNER_PREFIX: &str = "owner ";
+
 impl LedgerFile {
     /// Creates (or truncates) `path`, the ledger of `cluster`.
     pub fn create(path: &Path, cluster: ClusterId) -> io::Result<Self> {
@@ -32,6 +35,17 @@ impl LedgerFile {
         writeln!(out, "{HEADER}{:032x}", cluster.as_u128())?;
         out.flush()?;
         Ok(Self { out })
+    }
+
+    /// Writes `lines` (owner lines, see `crate::owners`) and hands them to the kernel.
+    pub fn write_lines(&mut self, lines: &[String]) -> io::Result<()> {
+        if lines.is_empty() {
+            return Ok(());
+        }
+        for line in lines {
+            writeln!(self.out, "{line}")?;
+        }
+        self.out.flush()
     }
 
     /// Writes `entries`, a line each, and hands them to the kernel: a pod killed after this
@@ -187,6 +201,9 @@ fn read(lives: &[Life], unreadable: &mut u64) -> io::Result<(NamesEvents, Vec<Op
         for line in whole.lines() {
             if let Some(cluster) = line.strip_prefix(HEADER) {
                 cluster_of[index] = parse_cluster(cluster);
+                continue;
+            }
+            if line.starts_with(OWNER_PREFIX) {
                 continue;
             }
             match LedgerEntry::parse(line) {

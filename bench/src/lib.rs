@@ -37,6 +37,8 @@
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.
 //! - [`ledger`] — pods' ledgers of every routed op and contact report by name, and following
 //!   each name across a run's pods to its end (`seam chaos`).
+//! - [`owners`] — who owned each entity at every tick, from the owner lines pods write into
+//!   their ledgers (`seam chaos` checks no tick has an entity with no owner or two).
 //! - [`error`] — [`error::BenchError`], the one error type of the crate (and
 //!   [`error::PingError`]); no `Result<_, String>` anywhere.
 //! - [`document`] — reports as data ([`document::Document`]), rendered as text or Markdown.
@@ -56,6 +58,7 @@ pub mod ledger;
 pub mod network;
 pub mod node;
 pub mod ops;
+pub mod owners;
 pub mod ping;
 pub mod pod;
 pub mod record;

@@ -23,7 +23,7 @@ pub(super) struct Pods {
     pub(super) all: Vec<PodState>,
     pub(super) readers: Vec<JoinHandle<()>>,
     pub(super) run_plan: RunPlan,
-    ticks: u64,
+    pub(super) ticks: u64,
     /// Every life's ledger, in a directory of the run's own: removed at the end, unless they
     /// show an op or report lost or applied twice.
     pub(super) ledgers: Ledgers,

@@ -431,7 +431,14 @@ impl<'p> Runner<'p> {
             (self.problems).push(format!("cannot read the pods' ledgers: {e}"));
             Followed::default()
         });
-        if !(by_name.ops.holds() && by_name.contacts.holds()) {
+        let owners = crate::owners::check(&self.pods.lives, self.pods.ticks).unwrap_or_else(|e| {
+            (self.problems).push(format!("cannot read the pods' owner lines: {e}"));
+            crate::owners::OwnerCheck {
+                unreadable_lines: 1,
+                ..Default::default()
+            }
+        });
+        if !(by_name.ops.holds() && by_name.contacts.holds() && owners.holds()) {
             self.pods.ledgers.remove = false;
             self.problems.push(format!(
                 "the pods' ledgers are kept in {} for tracing",
@@ -464,6 +471,7 @@ impl<'p> Runner<'p> {
                 fault_log: std::mem::take(&mut self.fault_log),
                 accounting_slips: std::mem::take(&mut self.accounting_slips),
                 by_name,
+                owners,
             },
         ))
     }

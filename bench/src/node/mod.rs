@@ -291,7 +291,9 @@ pub struct NodeArgs {
     pub record: Option<PathBuf>,
     /// Write this pod's ledger into FILE as it ticks: a line for everything that happened here
     /// to a routed op or contact report, by name (sent, answered, applied, dropped, given up,
-    /// unanswered at the end), for following each across pods (`seam chaos` does).
+    /// unanswered at the end), and one for each entity it starts or stops owning, for
+    /// following each op across pods and checking every entity has one owner at every tick
+    /// (`seam chaos` does both).
     #[arg(long, value_name = "FILE")]
     pub ledger: Option<PathBuf>,
     /// Also write the final report (JSON) to this file.
@@ -356,6 +358,7 @@ pub fn run_node(
     let mut ledger = open_ledger(args, &pod).context(pod_name(&part))?;
     let ledger_failed =
         |e: std::io::Error| BenchError::io("write", "the ledger", e).within(pod_name(&part));
+    let mut owners = crate::owners::OwnerLog::default();
     let started = Instant::now();
     let mut tally = Tally::new(&pod);
     // The schedule stops the policy's hand-offs in the last ticks, so that those under way
@@ -370,6 +373,9 @@ pub fn run_node(
         if let Some(ledger) = &mut ledger {
             ledger
                 .write(&ledger_entries(pod.last_events()))
+                .map_err(ledger_failed)?;
+            ledger
+                .write_lines(&owners.lines(pod.cluster(), pod.last_events()))
                 .map_err(ledger_failed)?;
         }
         if let Some(recorder) = &mut recorder {

@@ -415,12 +415,7 @@ impl Pod {
 
     /// Every entity this pod owns now.
     pub fn owned(&self) -> Vec<EntityId> {
-        let me = self.cluster.id();
-        let sim = self.cluster.sim();
-        sim.entities()
-            .filter(|(_, info)| info.owner == me)
-            .map(|(id, _)| id)
-            .collect()
+        self.cluster.owned().collect()
     }
 
     /// Every neighbour entity this pod holds a proxy of, with the owner it names (scenery

@@ -182,6 +182,32 @@ impl Cluster {
         &self.sim
     }
 
+    /// Whether this cluster owns `entity` at the end of its last tick: its body here is the
+    /// entity's, or it handed the entity over in that tick's frame (it stepped the body as
+    /// owner in that tick; the new owner counts it from the next, see
+    /// `ClusterEvent::HandoffTaken`). Taken between ticks, over every pod of a world, each
+    /// entity is owned by exactly one, hand-offs included.
+    pub fn owns(&self, entity: EntityId) -> bool {
+        let me = self.config.cluster_id;
+        self.sim.info(entity).is_some_and(|info| info.owner == me)
+            || (!self.begun && self.handoffs.given_last_tick().contains(&entity))
+    }
+
+    /// Every entity this cluster owns at the end of its last tick (see [`Cluster::owns`]).
+    pub fn owned(&self) -> impl Iterator<Item = EntityId> + '_ {
+        let me = self.config.cluster_id;
+        let handed: &[EntityId] = if self.begun {
+            &[]
+        } else {
+            self.handoffs.given_last_tick()
+        };
+        self.sim
+            .entities()
+            .filter(move |(_, info)| info.owner == me)
+            .map(|(id, _)| id)
+            .chain(handed.iter().copied())
+    }
+
     /// What the cluster has counted: every event of its stream (see `crate::events`).
     pub fn stats(&self) -> ClusterStats {
         self.events.stats()

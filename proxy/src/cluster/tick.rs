@@ -155,7 +155,14 @@ impl Cluster {
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
         self.begun = true;
+        self.handoffs.new_tick();
         self.reconcile(frames.replication);
+        handoff::return_overdue(
+            &mut self.handoffs,
+            &mut self.sim,
+            &self.config,
+            &mut self.events,
+        );
         self.take_leaving(&frames.events);
         self.surface_contacts(&frames.events);
         self.run_user(user);

@@ -331,6 +331,10 @@ pub enum ClusterEvent {
         entity: EntityId,
         /// The old owner.
         from: ClusterId,
+        /// The first tick it is this cluster's: the one after the tick its old owner handed it
+        /// over in (a free-running pod whose frame arrived late takes it later, but owns it
+        /// from then: the old owner stopped counting it).
+        since: u64,
     },
     /// A hand-off to a neighbour that left before taking it was taken back.
     HandoffTakenBack {
@@ -338,6 +342,23 @@ pub enum ClusterEvent {
         entity: EntityId,
         /// The neighbour that left.
         from: ClusterId,
+    },
+    /// A hand-off a live neighbour did not answer within `neighbour_timeout_ticks` came back
+    /// (logged): it is not taking it (it does not list this cluster as a neighbour, say).
+    HandoffReturned {
+        /// The entity.
+        entity: EntityId,
+        /// The neighbour that did not take it.
+        to: ClusterId,
+    },
+    /// An entity this cluster took over was claimed back by the cluster that handed it here,
+    /// at a later epoch (it had given up waiting, see `HandoffReturned`): this copy became its
+    /// proxy.
+    HandoffYielded {
+        /// The entity.
+        entity: EntityId,
+        /// The cluster that claimed it back.
+        to: ClusterId,
     },
     /// A hand-off to a neighbour taken for dead before it took it was taken back.
     HandoffReclaimed {

@@ -157,6 +157,12 @@ pub struct ClusterStats {
     pub entities_adopted: u64,
     /// Entities handed to a neighbour that was taken for dead before it took them: taken back.
     pub handoffs_reclaimed: u64,
+    /// Hand-offs a live neighbour did not answer within `neighbour_timeout_ticks`: taken
+    /// back (each logged by name).
+    pub handoffs_returned: u64,
+    /// Entities taken over here and claimed back by their giver, which had given up waiting
+    /// for the answer (see `handoffs_returned`): this copy became a proxy.
+    pub handoffs_yielded: u64,
     /// Adopted entities handed back to their owner when it was heard from again.
     pub entities_returned: u64,
     /// Frames tagged further ahead than a live sender could be (see the crate docs on
@@ -265,6 +271,8 @@ impl ClusterStats {
             E::HandoffTaken { .. } => self.handoffs_in += 1,
             E::HandoffTakenBack { .. } => self.handoffs_taken_back += 1,
             E::HandoffReclaimed { .. } => self.handoffs_reclaimed += 1,
+            E::HandoffReturned { .. } => self.handoffs_returned += 1,
+            E::HandoffYielded { .. } => self.handoffs_yielded += 1,
             E::NeighbourLost { .. } => self.neighbours_lost += 1,
             E::NeighbourLeft { .. } => self.neighbours_left += 1,
             E::NeighbourRejoined { .. } => self.neighbours_rejoined += 1,

@@ -9,7 +9,15 @@
 //! repeat of an older hand-off to this cluster is not taken. A hand-off to this cluster whose
 //! state is from the tick this world is about to step to is held until then (early).
 //! Hand-offs a neighbour never took come back when it leaves or is taken for dead
-//! ([`take_back`]).
+//! ([`take_back`]); one a neighbour neither takes nor dies before within
+//! `neighbour_timeout_ticks` comes back too ([`Handoffs::take_overdue`]), at the next epoch, so
+//! the claim it comes back with outranks a late take there. Hand-offs go only to a neighbour
+//! heard from and not gone ([`check`]).
+//!
+//! Ownership has no gap at a hand-off: the giver stepped the body as its owner in the tick
+//! whose frame hands it over, so it counts as the giver's until that tick ends
+//! ([`Handoffs::given_last_tick`]); the taker counts it from the next tick
+//! (`ClusterEvent::HandoffTaken::since`), however late its frame arrives.
 
 use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap};
 use seam_sim::{BodyRole, ClusterSim};
@@ -45,6 +53,35 @@ pub(crate) fn take_back(sim: &mut ClusterSim, me: ClusterId, handed: &EntityStat
     sim.set_role(back.id, owner_role(&back)).is_ok() && sim.apply_state(&back).is_ok()
 }
 
+/// Hand-offs a live neighbour has not answered within `neighbour_timeout_ticks` come back (see
+/// the module's text): counted and logged with the entity and the neighbour.
+pub(crate) fn return_overdue(
+    handoffs: &mut Handoffs,
+    sim: &mut ClusterSim,
+    config: &ClusterConfig,
+    events: &mut Events,
+) {
+    let me = config.cluster_id;
+    for handed in handoffs.take_overdue(sim.tick(), config.neighbour_timeout_ticks) {
+        let to = handed.cluster_id;
+        let back = take_back(sim, me, &handed);
+        if back {
+            events.emit(ClusterEvent::HandoffReturned {
+                entity: handed.id,
+                to,
+            });
+        }
+        tracing::warn!(
+            cluster = %me,
+            entity = %handed.id,
+            neighbour = %to,
+            handed_at = handed.tick,
+            taken_back = back,
+            "hand-off not taken within neighbour_timeout_ticks: it comes back"
+        );
+    }
+}
+
 /// Whether this cluster may hand `entity` to `to` now.
 pub(crate) fn check(
     sim: &ClusterSim,
@@ -67,6 +104,9 @@ pub(crate) fn check(
     match neighbours.status(to) {
         Some(NeighbourStatus::Dead) => Err(refuse("the neighbour is taken for dead (silent)")),
         Some(NeighbourStatus::Left) => Err(refuse("the neighbour has left")),
+        Some(NeighbourStatus::NotHeard) => Err(refuse(
+            "the neighbour has not been heard from (not running yet?)",
+        )),
         _ => Ok(()),
     }
 }
@@ -80,6 +120,9 @@ pub(crate) struct Handoffs {
     /// Every replication frame repeats them until a frame of the new owner mentions the
     /// entity; until then the new owner's silence about the entity is not a departure.
     in_transit: IdMap<EntityId, EntityState>,
+    /// The entities handed over in the frame of the tick this world last stepped: stepped here
+    /// as owned in that tick, so still this cluster's until the next tick begins.
+    given_last: Vec<EntityId>,
     /// Entities this cluster handed over, with the epoch they left at and the tick.
     released: IdMap<EntityId, (u32, u64)>,
     /// Hand-offs to this cluster whose state is from a later tick than this world's, with the
@@ -136,11 +179,13 @@ impl Handoffs {
         events: &mut Events,
     ) -> Result<(), ClusterError> {
         self.queued.clear();
+        self.given_last.clear();
         for handed in handing {
             let entity = handed.id;
             sim.set_authority(entity, handed.cluster_id, handed.epoch)?;
             sim.set_role(entity, mode.role_for(handed.body.motion))?;
             self.in_transit.insert(entity, handed);
+            self.given_last.push(entity);
             self.released.insert(entity, (handed.epoch, tick));
             events.emit(ClusterEvent::HandoffGiven {
                 entity,
@@ -150,6 +195,32 @@ impl Handoffs {
         self.released
             .retain(|_, &mut (_, at)| tick.saturating_sub(at) <= RELEASED_FOR);
         Ok(())
+    }
+
+    /// A new tick begins: the bodies handed over in the last one are the new owners' now.
+    pub(crate) fn new_tick(&mut self) {
+        self.given_last.clear();
+    }
+
+    /// The entities handed over in the frame of the tick this world last stepped (this
+    /// cluster's until the next tick begins).
+    pub(crate) fn given_last_tick(&self) -> &[EntityId] {
+        &self.given_last
+    }
+
+    /// Takes out the hand-offs in transit that have waited more than `bound` ticks at `tick`
+    /// for an answer from a neighbour still taken for alive: it is not taking them.
+    pub(crate) fn take_overdue(&mut self, tick: u64, bound: u64) -> Vec<EntityState> {
+        let overdue: Vec<EntityState> = self
+            .in_transit
+            .values()
+            .filter(|handed| tick.saturating_sub(handed.tick) > bound)
+            .copied()
+            .collect();
+        for handed in &overdue {
+            self.in_transit.swap_remove(&handed.id);
+        }
+        overdue
     }
 
     /// A frame of `from` mentioning the entities `mentioned` answers the hand-offs to it of

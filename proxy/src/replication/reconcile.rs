@@ -136,6 +136,14 @@ impl Reconcile<'_> {
             {
                 Ok(())
             }
+            // Claimed back, at a later epoch, by the cluster that handed it here: it gave up
+            // waiting for this cluster's answer (see `Handoffs::take_overdue`), and its claim
+            // outranks this copy, which becomes its proxy.
+            Some((owner, epoch))
+                if owner == me && state.cluster_id == from && state.epoch > epoch =>
+            {
+                self.yield_to(state, from, listed)
+            }
             // Only an entity's owner speaks for it: a frame claiming another cluster's (or
             // this cluster's) entity is ignored.
             Some((owner, _)) if owner != from => Err(Refused),
@@ -158,7 +166,7 @@ impl Reconcile<'_> {
                     entity: state.id,
                     from,
                 });
-                self.taken(state.id, from);
+                self.taken(state, from);
                 Ok(())
             }
             None if state.cluster_id == from && self.visible(state) => {
@@ -174,9 +182,41 @@ impl Reconcile<'_> {
         }
     }
 
-    fn taken(&mut self, entity: EntityId, from: ClusterId) {
-        self.events
-            .emit(ClusterEvent::HandoffTaken { entity, from });
+    fn taken(&mut self, state: &EntityState, from: ClusterId) {
+        self.events.emit(ClusterEvent::HandoffTaken {
+            entity: state.id,
+            from,
+            since: state.tick + 1,
+        });
+    }
+
+    /// Gives up this cluster's copy of an entity `from` claims back at a later epoch: it
+    /// becomes `from`'s proxy, where `from` says it is.
+    fn yield_to(
+        &mut self,
+        state: &EntityState,
+        from: ClusterId,
+        listed: &mut IdMap<EntityId, ()>,
+    ) -> Result<(), Refused> {
+        self.sim
+            .set_authority(state.id, from, state.epoch)
+            .and_then(|()| {
+                self.sim
+                    .set_role(state.id, self.config.proxy_mode.role_for(state.body.motion))
+            })
+            .map_err(|_| Refused)?;
+        self.events.emit(ClusterEvent::HandoffYielded {
+            entity: state.id,
+            to: from,
+        });
+        tracing::warn!(
+            cluster = %self.config.cluster_id,
+            entity = %state.id,
+            to = %from,
+            "entity claimed back by the cluster that handed it here: this copy is its proxy now"
+        );
+        listed.insert(state.id, ());
+        self.known(state, from)
     }
 
     /// A state from the current owner of an entity this world already has.
@@ -188,7 +228,7 @@ impl Reconcile<'_> {
                 .set_role(state.id, owner_role(state))
                 .map_err(|_| Refused)?;
             self.sim.apply_state(state).map_err(|_| Refused)?;
-            self.taken(state.id, from);
+            self.taken(state, from);
             return Ok(());
         }
         if state.cluster_id != from {

@@ -29,6 +29,7 @@ pub fn document(r: &ChaosReport) -> Document {
     doc.table(faults_table(r));
     doc.line(injected_lines(r));
     doc.line(counted_lines(r));
+    doc.line(owners_line(r));
     for (what, n, counted) in [
         ("ops", &r.by_name.ops, r.ops.counted_routed),
         (
@@ -125,6 +126,31 @@ fn injected_lines(r: &ChaosReport) -> String {
         for slip in &r.accounting_slips {
             out += &format!("\n  unseen: {slip}");
         }
+    }
+    out
+}
+
+/// Every entity's owners at every tick, from the pods' owner lines.
+fn owners_line(r: &ChaosReport) -> String {
+    let o = &r.owners_per_tick;
+    let mut out = format!(
+        "owners tick by tick: {} entities, {} entity-ticks: {} owned once, {} awaiting adoption \
+         after a kill, {} across a stall; {} unowned, {} owned twice{}",
+        o.entities,
+        o.entity_ticks,
+        o.owned_once,
+        o.awaiting_adoption,
+        o.across_a_stall,
+        o.unowned,
+        o.owned_twice,
+        if o.unreadable_lines > 0 {
+            format!("; {} owner lines unreadable", o.unreadable_lines)
+        } else {
+            String::new()
+        }
+    );
+    for example in &o.examples {
+        out += &format!("\n  {example}");
     }
     out
 }

@@ -16,6 +16,7 @@ use serde::Serialize;
 use super::inject::InjectCounts;
 use crate::ledger::Followed;
 use crate::node::{NodeProgress, NodeReport, TransportCounts};
+use crate::owners::OwnerCheck;
 use crate::run::ownership::{self, Ownership};
 use crate::scene::Scene;
 
@@ -61,6 +62,8 @@ pub struct ChaosReport {
     pub recovery: RecoveryCounts,
     /// Every entity owned once at the end?
     pub ownership: Ownership,
+    /// Every entity owned once at every tick (from the pods' owner lines)?
+    pub owners_per_tick: OwnerCheck,
     /// Panic messages on the pods' stderr.
     pub panics: u64,
     /// Pods that did not end well.
@@ -103,6 +106,7 @@ pub(super) struct Inputs<'a> {
     pub fault_log: Vec<crate::record::Fault>,
     pub accounting_slips: Vec<String>,
     pub by_name: Followed,
+    pub owners: OwnerCheck,
 }
 
 /// The counters of pod lives (one pod's several lives, several pods) summed: the cluster's,
@@ -202,6 +206,7 @@ impl ChaosReport {
             contacts,
             recovery,
             ownership: ownership::check(scene, run_id, inputs.reports),
+            owners_per_tick: inputs.owners,
             panics: inputs.panics,
             exited_badly: inputs.exited_badly,
             problems: inputs.problems,
@@ -268,6 +273,7 @@ impl ChaosReport {
             && self.faults_missing.is_empty()
             && self.accounted()
             && self.ownership.holds()
+            && self.owners_per_tick.holds()
             && self.adoptions_returned()
             && self.ops.lost() == 0
             && self.contacts.lost() == 0

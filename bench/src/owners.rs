@@ -1,0 +1,374 @@
+//! Who owned each entity at every tick of a run, across its pods.
+//!
+//! Each pod writes into its ledger, as it ticks, a line for every entity it starts or stops
+//! owning ([`OwnerLog`], from `seam_proxy::Cluster::owned`, where a body handed over counts as
+//! the giver's through the tick whose frame hands it and as the taker's from the next, however
+//! late the taker's frame arrived). [`check`] reads every life's lines and walks each entity
+//! tick by tick from the first tick anyone owned it to the end of the run:
+//!
+//! - owned by one pod: as it must be;
+//! - by none, after its last owner was killed and before a neighbour adopted it (a neighbour
+//!   is taken for dead only after `neighbour_timeout_ticks` of silence): **awaiting
+//!   adoption**, what killing a pod costs, counted apart;
+//! - by two, one of them an adopter of a pod that was only stopped (it woke still owning its
+//!   copy, and the adopter's copy stops when it hands it back): **across a stall**, counted
+//!   apart;
+//! - by none otherwise: **unowned**, a lost body while it lasts;
+//! - by two otherwise: **owned twice**.
+//!
+//! Lines: `owner + ENTITY FIRST_TICK HOW` (`HOW`: `own` for a body it spawned or held from the
+//! start, `taken` for a hand-off in, `adopted` from a neighbour taken for dead) and
+//! `owner - ENTITY LAST_TICK`, the entity in 32 hex digits.
+
+use std::collections::HashMap;
+use std::io;
+
+use seam_proxy::{Cluster, ClusterEvent, TickEvent};
+use seam_sim::wire::{EntityId, IdMap};
+use serde::Serialize;
+
+use crate::ledger::{Life, OWNER_PREFIX as PREFIX};
+
+/// How a pod came to own an entity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum How {
+    Own,
+    Taken,
+    Adopted,
+}
+
+impl How {
+    fn word(self) -> &'static str {
+        match self {
+            How::Own => "own",
+            How::Taken => "taken",
+            How::Adopted => "adopted",
+        }
+    }
+
+    fn parse(word: &str) -> Option<Self> {
+        [How::Own, How::Taken, How::Adopted]
+            .into_iter()
+            .find(|how| how.word() == word)
+    }
+}
+
+/// A pod's side: what it owned at its last tick, to write what changed.
+#[derive(Debug, Default)]
+pub struct OwnerLog {
+    owned: IdMap<EntityId, ()>,
+    last_tick: Option<u64>,
+}
+
+impl OwnerLog {
+    /// The lines for what `cluster` owns now (between ticks) against what it owned at its last
+    /// tick; `events` are the events of the tick just run (for how each came).
+    pub fn lines(&mut self, cluster: &Cluster, events: &[TickEvent]) -> Vec<String> {
+        let tick = cluster.sim().tick();
+        let now: IdMap<EntityId, ()> = cluster.owned().map(|id| (id, ())).collect();
+        let mut lines = Vec::new();
+        for id in now.keys() {
+            if self.owned.contains_key(id) {
+                continue;
+            }
+            let (first, how) = came(*id, tick, events);
+            lines.push(format!(
+                "{PREFIX}+ {:032x} {first} {}",
+                id.as_u128(),
+                how.word()
+            ));
+        }
+        let last = self.last_tick.unwrap_or(tick);
+        for id in self.owned.keys().filter(|id| !now.contains_key(*id)) {
+            lines.push(format!("{PREFIX}- {:032x} {last}", id.as_u128()));
+        }
+        self.owned = now;
+        self.last_tick = Some(tick);
+        lines
+    }
+}
+
+/// How `entity`, owned here from `tick` on, came: the tick a hand-off in counts from.
+fn came(entity: EntityId, tick: u64, events: &[TickEvent]) -> (u64, How) {
+    for e in events {
+        match e.event {
+            ClusterEvent::HandoffTaken {
+                entity: id, since, ..
+            } if id == entity => return (since.min(tick), How::Taken),
+            ClusterEvent::EntityAdopted { entity: id, .. } if id == entity => {
+                return (tick, How::Adopted);
+            }
+            _ => {}
+        }
+    }
+    (tick, How::Own)
+}
+
+/// What [`check`] found, in entity-ticks (one entity at one tick).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct OwnerCheck {
+    /// Entities followed.
+    pub entities: usize,
+    /// Entity-ticks walked.
+    pub entity_ticks: u64,
+    /// Owned by exactly one pod.
+    pub owned_once: u64,
+    /// Owned by none while the last owner was killed and not yet taken for dead.
+    pub awaiting_adoption: u64,
+    /// Owned by a stopped pod and its adopter at once.
+    pub across_a_stall: u64,
+    /// Owned by none otherwise: lost while it lasts.
+    pub unowned: u64,
+    /// Owned by two otherwise.
+    pub owned_twice: u64,
+    /// A few unowned or doubled entities, with the ticks and lives, to start tracing from.
+    pub examples: Vec<String>,
+    /// Owner lines that did not read.
+    pub unreadable_lines: u64,
+}
+
+impl OwnerCheck {
+    /// Whether every entity had exactly one owner at every tick but for what faults explain.
+    pub fn holds(&self) -> bool {
+        self.unowned == 0 && self.owned_twice == 0 && self.unreadable_lines == 0
+    }
+}
+
+/// One life's ownership of one entity: from its first tick to its last, inclusive.
+#[derive(Debug, Clone, Copy)]
+struct Span {
+    life: usize,
+    from: u64,
+    to: u64,
+    how: How,
+}
+
+/// At most this many examples.
+const EXAMPLES: usize = 5;
+
+/// Reads the owner lines of `lives` and walks every entity tick by tick up to `end_tick` (the
+/// run's last tick). A killed life owned what it held until the last tick it was seen to
+/// finish; the others until `end_tick`.
+pub fn check(lives: &[Life], end_tick: u64) -> io::Result<OwnerCheck> {
+    let mut out = OwnerCheck::default();
+    let spans = read(lives, end_tick, &mut out.unreadable_lines)?;
+    out.entities = spans.len();
+    let mut ids: Vec<&u128> = spans.keys().collect();
+    ids.sort();
+    for id in ids {
+        walk(*id, &spans[id], lives, end_tick, &mut out);
+    }
+    Ok(out)
+}
+
+/// Each entity's spans, from every life's owner lines.
+fn read(
+    lives: &[Life],
+    end_tick: u64,
+    unreadable: &mut u64,
+) -> io::Result<HashMap<u128, Vec<Span>>> {
+    let mut spans: HashMap<u128, Vec<Span>> = HashMap::new();
+    for (life, lived) in lives.iter().enumerate() {
+        let text = match std::fs::read_to_string(&lived.path) {
+            Ok(text) => text,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(e),
+        };
+        let last = lived.killed_after.unwrap_or(end_tick).min(end_tick);
+        let mut open: HashMap<u128, (u64, How)> = HashMap::new();
+        // Only whole lines: what follows the last newline was cut short by a kill.
+        let whole = text.rfind('\n').map_or("", |end| &text[..end]);
+        for line in whole.lines() {
+            let Some(rest) = line.strip_prefix(PREFIX) else {
+                continue;
+            };
+            let words: Vec<&str> = rest.split(' ').collect();
+            let parsed = match words.as_slice() {
+                ["+", id, tick, how] => u128::from_str_radix(id, 16)
+                    .ok()
+                    .zip(tick.parse::<u64>().ok())
+                    .zip(How::parse(how))
+                    .map(|((id, tick), how)| {
+                        open.insert(id, (tick, how));
+                    }),
+                ["-", id, tick] => u128::from_str_radix(id, 16)
+                    .ok()
+                    .zip(tick.parse::<u64>().ok())
+                    .map(|(id, tick)| {
+                        if let Some((from, how)) = open.remove(&id) {
+                            let to = tick.min(last);
+                            spans.entry(id).or_default().push(Span {
+                                life,
+                                from,
+                                to,
+                                how,
+                            });
+                        }
+                    }),
+                _ => None,
+            };
+            *unreadable += u64::from(parsed.is_none());
+        }
+        for (id, (from, how)) in open {
+            spans.entry(id).or_default().push(Span {
+                life,
+                from,
+                to: last,
+                how,
+            });
+        }
+    }
+    Ok(spans)
+}
+
+/// Walks one entity from the first tick a life owned it to `end_tick`.
+fn walk(id: u128, spans: &[Span], lives: &[Life], end_tick: u64, out: &mut OwnerCheck) {
+    let Some(start) = spans.iter().map(|s| s.from).min() else {
+        return;
+    };
+    let mut wrong: Option<(u64, u64, &'static str)> = None;
+    for tick in start..=end_tick {
+        let owners: Vec<&Span> = spans
+            .iter()
+            .filter(|s| s.from <= tick && tick <= s.to)
+            .collect();
+        out.entity_ticks += 1;
+        let what = match owners.len() {
+            1 => {
+                out.owned_once += 1;
+                None
+            }
+            0 if after_a_kill(spans, lives, tick) => {
+                out.awaiting_adoption += 1;
+                None
+            }
+            0 => {
+                out.unowned += 1;
+                Some("unowned")
+            }
+            _ if owners.iter().any(|s| s.how == How::Adopted) => {
+                out.across_a_stall += 1;
+                None
+            }
+            _ => {
+                out.owned_twice += 1;
+                Some("owned twice")
+            }
+        };
+        wrong = match (wrong, what) {
+            (Some((from, _, kind)), Some(now)) if kind == now => Some((from, tick, kind)),
+            (None, Some(now)) => Some((tick, tick, now)),
+            (before, now) => {
+                if let Some(span) = before {
+                    example(id, span, spans, lives, out);
+                }
+                now.map(|now| (tick, tick, now))
+            }
+        };
+    }
+    if let Some(span) = wrong {
+        example(id, span, spans, lives, out);
+    }
+}
+
+/// Whether the latest span to end before `tick` was a killed life's, ended at its kill.
+fn after_a_kill(spans: &[Span], lives: &[Life], tick: u64) -> bool {
+    spans
+        .iter()
+        .filter(|s| s.to < tick)
+        .max_by_key(|s| s.to)
+        .is_some_and(|s| lives[s.life].killed_after == Some(s.to))
+}
+
+fn example(
+    id: u128,
+    (from, to, kind): (u64, u64, &'static str),
+    spans: &[Span],
+    lives: &[Life],
+    out: &mut OwnerCheck,
+) {
+    if out.examples.len() >= EXAMPLES {
+        return;
+    }
+    let owners: Vec<String> = spans
+        .iter()
+        .map(|s| {
+            let name = lives[s.life]
+                .path
+                .file_stem()
+                .map_or_else(|| s.life.to_string(), |n| n.to_string_lossy().into_owned());
+            format!("{name} {}..={} ({})", s.from, s.to, s.how.word())
+        })
+        .collect();
+    out.examples.push(format!(
+        "{id:032x} {kind} at ticks {from}..={to}; owners: {}",
+        owners.join(", ")
+    ));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn life(dir: &std::path::Path, name: &str, lines: &[&str], killed_after: Option<u64>) -> Life {
+        let path = dir.join(format!("{name}.ledger"));
+        let mut text = lines.join("\n");
+        text.push('\n');
+        std::fs::write(&path, text).expect("write");
+        Life { path, killed_after }
+    }
+
+    /// A directory of the test's own.
+    fn dir(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("seam-owners-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        dir
+    }
+
+    fn id(n: u128) -> String {
+        format!("{n:032x}")
+    }
+
+    #[test]
+    fn a_hand_off_counted_gap_free_holds_and_a_gap_or_a_double_does_not() {
+        let dir = dir("hand-off");
+        let e = id(7);
+        let west = life(
+            &dir,
+            "west-0",
+            &[&format!("owner + {e} 1 own"), &format!("owner - {e} 10")],
+            None,
+        );
+        let east = life(&dir, "east-1", &[&format!("owner + {e} 11 taken")], None);
+        let found = check(&[west.clone(), east], 20).expect("check");
+        assert!(found.holds(), "{found:?}");
+        assert_eq!(found.owned_once, 20);
+
+        let late = life(&dir, "east-2", &[&format!("owner + {e} 13 taken")], None);
+        let found = check(&[west.clone(), late], 20).expect("check");
+        assert_eq!(found.unowned, 2, "{found:?}");
+        assert!(!found.holds());
+        assert!(
+            found.examples[0].contains("unowned at ticks 11..=12"),
+            "{found:?}"
+        );
+
+        let early = life(&dir, "east-3", &[&format!("owner + {e} 9 taken")], None);
+        let found = check(&[west, early], 20).expect("check");
+        assert_eq!(found.owned_twice, 2, "{found:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_killed_owner_leaves_its_bodies_awaiting_adoption_not_lost() {
+        let dir = dir("kill");
+        let e = id(9);
+        let killed = life(&dir, "west-0", &[&format!("owner + {e} 1 own")], Some(30));
+        let adopter = life(&dir, "east-1", &[&format!("owner + {e} 91 adopted")], None);
+        let found = check(&[killed, adopter], 100).expect("check");
+        assert!(found.holds(), "{found:?}");
+        assert_eq!(found.awaiting_adoption, 60);
+        assert_eq!(found.owned_once, 40);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
