@@ -15,6 +15,27 @@ pub fn physics_events(cluster: ClusterId) -> String {
     format!("{PHYSICS_EVENTS}{cluster}")
 }
 
+/// The name a cluster claims on its transport so that it runs once (see
+/// `seam_transport::Transport::claim`; not a channel).
+pub(crate) fn claim(cluster: ClusterId) -> String {
+    format!("cluster:{cluster}")
+}
+
+/// Who claims a name (see [`claim`]): this process, its host and the time, for a second pod
+/// of the cluster to name.
+pub(crate) fn claimant() -> String {
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_owned())
+        .unwrap_or_else(|_| "this host".to_owned());
+    let since = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    format!(
+        "pid {} on {host}, started at unix time {since}",
+        std::process::id()
+    )
+}
+
 /// What a received channel name says.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Channel {

@@ -143,8 +143,9 @@ pub struct ClusterConfig {
 pub const DEFAULT_KEYFRAME_TICKS: u64 = 30;
 
 impl ClusterConfig {
-    /// A cluster observing everything, with Fixed proxies, 60 Hz, replication every tick,
-    /// neighbours taken for dead after 60 silent ticks, and the [`AuthorityMode::Spatial`]
+    /// A cluster observing everything (`region` [`Region::EVERYWHERE`], so `spread` 0 m: set
+    /// both, or give the region on the world map), with Fixed proxies, 60 Hz, replication
+    /// every tick, neighbours taken for dead after 60 silent ticks, and the default authority
     /// policy (which, observing everything, hands nothing over until given a region and a
     /// world map).
     pub fn new(cluster_id: ClusterId, neighbours: Vec<ClusterId>, transport: &str) -> Self {

@@ -2,12 +2,15 @@
 
 use seam_sim::SimError;
 use seam_sim::wire::ClusterId;
-use seam_transport::{OpenError, PublishError, ReceiveError, SubscribeError};
+use seam_transport::{ClaimError, OpenError, PublishError, ReceiveError, SubscribeError};
 
 /// Why a cluster could not start or finish a tick.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ClusterError {
+    /// A configuration value breaks a rule (see [`ClusterConfig::check`](crate::ClusterConfig::check)).
+    #[error("configuration: {0}")]
+    Config(#[from] crate::ConfigError),
     /// The transport could not be opened.
     #[error("cannot open the transport: {0}")]
     Open(#[from] OpenError),
@@ -70,4 +73,14 @@ pub enum ClusterError {
     /// A free-running schedule that cannot be kept (see `Schedule::new`).
     #[error("schedule: {0}")]
     Schedule(String),
+    /// Another pod of this cluster runs already (or took over from this one): one cluster,
+    /// one pod (see [`Cluster::new`](crate::Cluster::new)).
+    #[error("cluster {cluster} runs already: {source}")]
+    AlreadyRunning {
+        /// The cluster.
+        cluster: ClusterId,
+        /// The claim refused or lost, naming the other pod.
+        #[source]
+        source: ClaimError,
+    },
 }

@@ -255,17 +255,21 @@
 //! - `authority` — who should own an entity: [`AuthorityPolicy`], the built-in [`Group`] and
 //!   [`Spatial`] policies, [`AuthorityMode`]; who adopts a dead neighbour's entities.
 //! - `config` — [`ClusterConfig`], [`ProxyMode`].
+//! - `checks` — the rules a configuration must meet ([`ClusterConfig::check`],
+//!   [`ConfigError`]).
 //! - `world` — [`Region`], [`WorldCluster`] and [`world_map`].
 //! - `runtime` — [`Schedule`] (a free-running cluster's ticks on the host's clock, as a pod
 //!   runs them) and [`lockstep_round`] (N clusters of one process, tick by tick).
 //! - `bridge` — [`Bridge`]: one host's channels passed to and from a Redis server.
 //! - `clock` — the host monotonic clock ([`monotonic_ns`]).
-//! - `channels` — channel names ([`replication`], [`physics_events`]).
+//! - `channels` — channel names ([`replication`], [`physics_events`]), and the name a cluster
+//!   claims so that it runs once.
 //! - `error` — [`ClusterError`].
 
 mod authority;
 mod bridge;
 mod channels;
+mod checks;
 mod clock;
 mod cluster;
 mod config;
@@ -287,6 +291,7 @@ pub use authority::{
 };
 pub use bridge::{Bridge, BridgeRoutes, DirectionCounters, DirectionStats};
 pub use channels::{physics_events, replication};
+pub use checks::ConfigError;
 pub use clock::monotonic_ns;
 pub use cluster::{Cluster, DRAIN_S};
 pub use config::{ClusterConfig, DEFAULT_KEYFRAME_TICKS, ProxyMode};

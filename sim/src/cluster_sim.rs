@@ -302,7 +302,7 @@ impl ClusterSim {
     /// another cluster, applied a tick late): the motion those steps missed is added, so the
     /// body is where one world that applied it on time has it (see `body::apply_op_late`).
     pub fn apply_op_late(&mut self, op: &PhysicsOp, missed: u64) -> Result<(), SimError> {
-        validate::op(op)?;
+        validate::op(op, self.config.max_op_magnitude)?;
         let entry = self
             .entities
             .get(&op.target())
@@ -338,6 +338,7 @@ impl ClusterSim {
             stale: &mut self.stale,
             spawned: &mut self.spawned,
             router,
+            max_op_magnitude: self.config.max_op_magnitude,
         };
         (context, handle)
     }

@@ -15,6 +15,13 @@ pub struct SimConfig {
     /// default is 400 m/s, below a rifle bullet; raise it for fast projectiles (and give them
     /// CCD).
     pub max_linear_velocity: f32,
+    /// Largest magnitude any component of a write may have (an impulse in N·s, a velocity in
+    /// m/s, a position in m…): beyond it the write is refused with
+    /// [`SimError::BeyondBound`](crate::SimError::BeyondBound), here and where it is routed, so
+    /// an absurd push is an error rather than a body that stops or vanishes. The proxy layer
+    /// sets it from `ClusterConfig::max_magnitude` (the bound on what is accepted from other
+    /// clusters); default 1e6.
+    pub max_op_magnitude: f32,
 }
 
 impl SimConfig {
@@ -25,6 +32,7 @@ impl SimConfig {
             dt: 1.0 / 60.0,
             gravity: [0.0, -9.81, 0.0],
             max_linear_velocity: 400.0,
+            max_op_magnitude: 1.0e6,
         }
     }
 }

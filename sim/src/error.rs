@@ -22,6 +22,18 @@ pub enum SimError {
         /// The offending components.
         value: [f32; 3],
     },
+    /// A write's value is beyond the bound (`SimConfig::max_op_magnitude`).
+    #[error("{what} of entity {entity} is beyond the bound of {bound}: {value:?}")]
+    BeyondBound {
+        /// The entity written to.
+        entity: EntityId,
+        /// Which value.
+        what: &'static str,
+        /// The offending components.
+        value: [f32; 3],
+        /// The bound.
+        bound: f32,
+    },
     /// A state's rotation is not a unit quaternion.
     #[error("rotation of entity {entity} is not a unit quaternion: {rotation:?}")]
     BadRotation {

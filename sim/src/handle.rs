@@ -74,6 +74,8 @@ pub struct PhysicsHandle<'a> {
     /// Entities spawned by game code this tick, added to the world once it has run.
     pub(crate) spawned: &'a mut Vec<(EntityState, BodyRole)>,
     pub(crate) router: &'a mut dyn WriteRouter,
+    /// `SimConfig::max_op_magnitude`.
+    pub(crate) max_op_magnitude: f32,
 }
 
 impl PhysicsHandle<'_> {
@@ -173,9 +175,10 @@ impl PhysicsHandle<'_> {
     }
 
     /// Applies `op` here if the target is owned here, else hands it to the router. Invalid ops
-    /// (NaN, infinity, unknown entity) change nothing and route nothing.
+    /// (NaN, infinity, a value beyond `SimConfig::max_op_magnitude`, unknown entity) change
+    /// nothing and route nothing.
     pub fn write(&mut self, op: PhysicsOp) -> Result<WriteOutcome, SimError> {
-        validate::op(&op)?;
+        validate::op(&op, self.max_op_magnitude)?;
         let entry = self
             .entities
             .get(&op.target())

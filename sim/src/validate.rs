@@ -23,12 +23,21 @@ pub(crate) fn finite(
     }
 }
 
-/// Checks an op's vector.
-pub(crate) fn op(op: &PhysicsOp) -> Result<(), SimError> {
-    match op.vector() {
-        Some(v) => finite(op.target(), op.name(), v),
-        None => Ok(()),
+/// Checks an op's vector: finite, and no component beyond `bound`.
+pub(crate) fn op(op: &PhysicsOp, bound: f32) -> Result<(), SimError> {
+    let Some(v) = op.vector() else {
+        return Ok(());
+    };
+    finite(op.target(), op.name(), v)?;
+    if v.iter().any(|c| c.abs() > bound) {
+        return Err(SimError::BeyondBound {
+            entity: op.target(),
+            what: op.name(),
+            value: v,
+            bound,
+        });
     }
+    Ok(())
 }
 
 /// Checks a shape descriptor.

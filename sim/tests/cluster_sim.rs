@@ -144,6 +144,8 @@ fn bad_writes_leave_the_world_bit_for_bit_unchanged() {
             physics.set_angvel(target, [f32::INFINITY, 0.0, 0.0]),
             physics.apply_impulse(unknown, [1.0, 0.0, 0.0]),
             physics.wake(unknown),
+            physics.apply_impulse(target, [1.0e30, 0.0, 0.0]),
+            physics.set_linvel(target, [0.0, -2.0e6, 0.0]),
         ];
         for result in bad {
             assert!(result.is_err(), "{result:?}");
@@ -152,6 +154,14 @@ fn bad_writes_leave_the_world_bit_for_bit_unchanged() {
             physics.apply_impulse(target, [f32::NAN, 0.0, 0.0]),
             Err(SimError::NonFinite {
                 what: "impulse",
+                ..
+            })
+        ));
+        assert!(matches!(
+            physics.apply_impulse(target, [1.0e30, 0.0, 0.0]),
+            Err(SimError::BeyondBound {
+                what: "impulse",
+                bound: 1.0e6,
                 ..
             })
         ));
@@ -197,6 +207,12 @@ fn writes_on_remote_entities_go_to_the_router() {
         assert_eq!(physics.wake(remote.id), Ok(WriteOutcome::Routed));
         // Invalid writes are refused before routing.
         assert!(physics.apply_impulse(remote.id, [f32::NAN; 3]).is_err());
+        assert!(
+            physics
+                .apply_impulse(remote.id, [0.0, 1.0e30, 0.0])
+                .is_err(),
+            "a write beyond the bound is refused, not routed"
+        );
     });
     assert_eq!(
         router.0,

@@ -17,6 +17,8 @@
 //! - `tests/seams.rs` — every bundled scene split with default settings against one world.
 //! - `tests/stability.rs` — where each method breaks, pinned on both sides.
 //! - `tests/handoff.rs` — a hand-off survives a lost frame, a stale repeat changes nothing.
+//! - `tests/one_pod.rs` — a second pod of a running cluster refused, a killed one replaced, a
+//!   pod whose lease lapsed and was taken over stopped.
 //! - `tests/safe_handoffs.rs` — no body handed to a neighbour never heard, one not taken comes
 //!   back, one owner for every body at every tick.
 //! - `tests/pushes.rs` — a routed push on a body in flight lands as in one world.

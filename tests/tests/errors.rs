@@ -21,6 +21,36 @@ fn bad_urls_say_what_is_wrong() {
     assert!(zero.contains("positive"), "{zero}");
     let prefix = error("shm?prefix=a/b").to_string();
     assert!(prefix.contains("prefix"), "{prefix}");
+    // Redis refuses unknown settings too, before connecting (nothing listens on port 1).
+    let redis = error("redis://127.0.0.1:1?bogus=1").to_string();
+    assert!(redis.contains("unknown setting `bogus`"), "{redis}");
+    let lease = error("redis://127.0.0.1:1?lease_ms=0").to_string();
+    assert!(lease.contains("lease_ms"), "{lease}");
+}
+
+/// Every configuration rule is checked when the cluster is made: the error names the field,
+/// the value and the rule, and nothing is opened.
+#[test]
+fn a_bad_configuration_is_refused_at_construction() {
+    use seam_proxy::{Cluster, ClusterConfig, ClusterError};
+    use seam_sim::wire::ClusterId;
+    let refused = |change: &dyn Fn(&mut ClusterConfig)| {
+        let mut config = ClusterConfig::new(ClusterId::random(), vec![], "local?prefix=never_");
+        change(&mut config);
+        match Cluster::new(config) {
+            Err(ClusterError::Config(e)) => e.to_string(),
+            Err(other) => panic!("expected a configuration error, got {other}"),
+            Ok(_) => panic!("accepted"),
+        }
+    };
+    let dt = refused(&|c| c.dt = 0.0);
+    assert!(dt.contains("`dt` = 0.0") && dt.contains("freezes"), "{dt}");
+    let gravity = refused(&|c| c.gravity[1] = f32::NAN);
+    assert!(gravity.contains("`gravity`"), "{gravity}");
+    let own = refused(&|c| c.neighbours = vec![c.cluster_id]);
+    assert!(own.contains("not its own neighbour"), "{own}");
+    let interval = refused(&|c| c.replication_interval = 0);
+    assert!(interval.contains("replication_interval"), "{interval}");
 }
 
 #[test]

@@ -51,6 +51,10 @@ impl Transport for Dropping {
         self.inner.publish(channel, &self.scratch[..len])
     }
 
+    fn claim(&mut self, name: &str, holder: &str) -> Result<(), seam_transport::ClaimError> {
+        self.inner.claim(name, holder)
+    }
+
     fn forward(
         &mut self,
         channel: &str,

@@ -191,3 +191,33 @@ pub enum ReceiveError {
         reason: String,
     },
 }
+
+/// Why a claim (see [`Transport::claim`](crate::Transport::claim)) failed or ended.
+#[derive(Debug, thiserror::Error)]
+pub enum ClaimError {
+    /// Another live transport holds the name.
+    #[error("{name:?} is held by {holder}")]
+    Held {
+        /// The name.
+        name: String,
+        /// Who holds it, as it described itself when it took the name.
+        holder: String,
+    },
+    /// This transport held the name, let its lease lapse (stopped, or cut off from the server
+    /// for longer than the lease), and another took it over.
+    #[error("{name:?} was taken over by {holder} after this holder's lease lapsed")]
+    Lost {
+        /// The name.
+        name: String,
+        /// Who holds it now.
+        holder: String,
+    },
+    /// The backend could not be asked.
+    #[error("cannot claim {name:?}: {reason}")]
+    Unavailable {
+        /// The name.
+        name: String,
+        /// What failed.
+        reason: String,
+    },
+}

@@ -43,7 +43,7 @@ mod url;
 
 pub use channel::{MAX_CHANNEL_LEN, validate_channel};
 pub use envelope::{ENVELOPE_VERSION, Envelope};
-pub use error::{ChannelError, OpenError, PublishError, ReceiveError, SubscribeError};
+pub use error::{ChannelError, ClaimError, OpenError, PublishError, ReceiveError, SubscribeError};
 pub use iceoryx::{IceoryxConfig, IceoryxTransport, LocalTransport, ShmTransport};
 pub use message::{Message, Origin, OwnedMessage};
 pub use pattern::glob_match;

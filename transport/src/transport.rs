@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use crate::error::{PublishError, ReceiveError, SubscribeError};
+use crate::error::{ClaimError, PublishError, ReceiveError, SubscribeError};
 use crate::{Message, OwnedMessage, Stats};
 
 /// Which backend a transport runs on.
@@ -98,6 +98,27 @@ pub trait Transport {
     fn advertise(&mut self, channel: &str, expected_payload: usize) -> Result<(), PublishError> {
         let _ = expected_payload;
         crate::channel::validate_channel(channel)?;
+        Ok(())
+    }
+
+    /// Takes `name` for as long as this transport lives: one transport at a time holds a name
+    /// among all of a backend's (one shared-memory prefix, one Redis server), which is how a
+    /// cluster makes sure it runs once. `holder` says who takes it (a process and host); a
+    /// transport refused gets it in [`ClaimError::Held`].
+    ///
+    /// On iceoryx2 the claim is a service that admits one publisher, held by this transport's
+    /// node (a killed holder's is reclaimed by iceoryx2's dead-node cleanup). On Redis it is a
+    /// lease, `SET seam:claim:NAME ... NX PX lease_ms` (3 s unless the URL's `lease_ms` says
+    /// otherwise), renewed by [`Transport::keep_claims`]: a new holder takes a name over only
+    /// once the old lease lapsed, so this waits up to one lease for a holder that stopped
+    /// renewing (killed) and answers `Held` as soon as it sees the lease renewed.
+    fn claim(&mut self, name: &str, holder: &str) -> Result<(), ClaimError>;
+
+    /// Keeps this transport's claims alive; call it often (every tick). On Redis it renews each
+    /// lease once a third of it has passed, and takes a lapsed one back if nobody else took it;
+    /// [`ClaimError::Lost`] when another transport holds it now. While the server is down it
+    /// does nothing (the outage is counted as usual).
+    fn keep_claims(&mut self) -> Result<(), ClaimError> {
         Ok(())
     }
 

@@ -12,9 +12,7 @@
 //! - `publish` — this tick's frames out: replication (with the policy's hand-offs) and one
 //!   physics-events frame per neighbour.
 
-use seam_sim::wire::{
-    self, ClusterId, EntityId, EntityState, PhysicsEventsFrame, ReplicationFrame, Stage,
-};
+use seam_sim::wire::{ClusterId, EntityId, EntityState, PhysicsEventsFrame, Stage};
 use seam_sim::{BodyRole, ClusterSim, SimConfig};
 use seam_transport::Transport;
 
@@ -104,7 +102,16 @@ pub struct Cluster {
 
 impl Cluster {
     /// Opens the transport the configuration names and subscribes to the neighbours.
+    ///
+    /// A cluster runs once: it claims its id on the transport first (see
+    /// [`Transport::claim`]), and a second pod of a cluster that runs already fails here with
+    /// [`ClusterError::AlreadyRunning`] naming the running one (its process id, host and start
+    /// time). On shared memory iceoryx2 admits one holder; on Redis a lease the running pod
+    /// renews every tick, so a pod restarted after a crash waits for the crashed one's lease
+    /// (3 s, `lease_ms` in the URL) to lapse before it starts. A pod whose lease lapsed while
+    /// it was stopped and was taken over stops with the same error at its next tick.
     pub fn new(config: ClusterConfig) -> Result<Self, ClusterError> {
+        config.check()?;
         let transport = seam_transport::open(&config.transport)?;
         Self::with_transport(config, transport)
     }
@@ -114,6 +121,14 @@ impl Cluster {
         config: ClusterConfig,
         mut transport: Box<dyn Transport>,
     ) -> Result<Self, ClusterError> {
+        config.check()?;
+        let already = |source| ClusterError::AlreadyRunning {
+            cluster: config.cluster_id,
+            source,
+        };
+        transport
+            .claim(&channels::claim(config.cluster_id), &channels::claimant())
+            .map_err(already)?;
         for &neighbour in &config.neighbours {
             transport.subscribe(&channels::replication(neighbour))?;
         }
@@ -123,6 +138,7 @@ impl Cluster {
             dt: config.dt,
             gravity: config.gravity,
             max_linear_velocity: config.max_linear_velocity,
+            max_op_magnitude: config.max_magnitude,
         });
         tracing::debug!(
             cluster = %config.cluster_id,
@@ -351,31 +367,6 @@ impl Cluster {
             ..*state
         };
         self.sim.spawn(&state, BodyRole::Fixed)?;
-        Ok(())
-    }
-
-    /// Gets the transport ready to publish this cluster's frames, so the first tick does not
-    /// pay for setting channels up (on shm: creating services and shared memory, milliseconds
-    /// per channel). Call it after spawning the entities the cluster starts with: the
-    /// replication channel gets room for a frame of them all, with a quarter to spare.
-    pub fn advertise(&mut self) -> Result<(), ClusterError> {
-        let me = self.id();
-        let owned = self
-            .sim
-            .entities()
-            .filter(|(_, info)| info.owner == me)
-            .count();
-        let frame = ReplicationFrame {
-            from: me,
-            tick: 0,
-            states: Vec::new(),
-        };
-        let room = frame.max_encoded_len() + (owned + owned / 4) * wire::MAX_STATE_LEN;
-        self.transport.advertise(self.publisher.channel(), room)?;
-        for &neighbour in &self.config.neighbours {
-            self.transport
-                .advertise(&channels::physics_events(neighbour), EVENTS_ROOM)?;
-        }
         Ok(())
     }
 

@@ -1,9 +1,9 @@
 //! This tick's frames out: the replication frame (after asking the authority policy), and one
 //! physics-events frame per neighbour with its routed ops, answers, contacts and impulses.
 
-use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame, Stage};
+use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame, ReplicationFrame, Stage};
 
-use super::Cluster;
+use super::{Cluster, EVENTS_ROOM};
 use crate::authority::AuthorityView;
 use crate::channels;
 use crate::clock::monotonic_ns;
@@ -12,6 +12,31 @@ use crate::events::ClusterEvent;
 use crate::handoff;
 
 impl Cluster {
+    /// Gets the transport ready to publish this cluster's frames, so the first tick does not
+    /// pay for setting channels up (on shm: creating services and shared memory, milliseconds
+    /// per channel). Call it after spawning the entities the cluster starts with: the
+    /// replication channel gets room for a frame of them all, with a quarter to spare.
+    pub fn advertise(&mut self) -> Result<(), ClusterError> {
+        let me = self.id();
+        let owned = self
+            .sim
+            .entities()
+            .filter(|(_, info)| info.owner == me)
+            .count();
+        let frame = ReplicationFrame {
+            from: me,
+            tick: 0,
+            states: Vec::new(),
+        };
+        let room = frame.max_encoded_len() + (owned + owned / 4) * wire::MAX_STATE_LEN;
+        self.transport.advertise(self.publisher.channel(), room)?;
+        for &neighbour in &self.config.neighbours {
+            self.transport
+                .advertise(&channels::physics_events(neighbour), EVENTS_ROOM)?;
+        }
+        Ok(())
+    }
+
     /// Publishes this tick's replication frame (every `replication_interval` ticks, with any
     /// hand-offs) and one events frame per neighbour.
     pub(super) fn publish(&mut self) -> Result<(), ClusterError> {

@@ -155,6 +155,13 @@ impl Cluster {
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
         self.begun = true;
+        let me = self.config.cluster_id;
+        self.transport
+            .keep_claims()
+            .map_err(|source| ClusterError::AlreadyRunning {
+                cluster: me,
+                source,
+            })?;
         self.handoffs.new_tick();
         self.reconcile(frames.replication);
         handoff::return_overdue(

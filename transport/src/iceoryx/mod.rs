@@ -14,6 +14,7 @@
 //! `publish` counts a pattern subscriber once it has subscribed. A channel matched both directly
 //! and by patterns is received once (Redis would deliver it once per subscription).
 
+mod claim;
 mod config;
 mod ports;
 mod receive;
@@ -29,7 +30,7 @@ use iceoryx2::service::Service;
 
 use crate::channel::check_publish;
 use crate::envelope::{Intake, random_publisher_id};
-use crate::error::{OpenError, PublishError, ReceiveError, SubscribeError};
+use crate::error::{ClaimError, OpenError, PublishError, ReceiveError, SubscribeError};
 use crate::{Backend, Message, Stats, Transport, validate_channel};
 use ports::{Inlet, Outlet, PortError};
 
@@ -49,6 +50,8 @@ pub struct IceoryxTransport<S: Service> {
     /// The sample behind the last returned message: (index into `inlets`, sample).
     current: Option<(usize, ports::InSample<S>)>,
     intake: Intake,
+    /// Names this transport holds (see [`Transport::claim`]).
+    claims: Vec<claim::Claim<S>>,
 }
 
 /// Shared memory across the processes of one host.
@@ -95,6 +98,7 @@ where
             cursor: 0,
             current: None,
             intake: Intake::with_key(config.key.clone()),
+            claims: Vec::new(),
             config,
         })
     }
@@ -217,6 +221,19 @@ where
         validate_channel(channel)?;
         let initial = self.config.initial_payload.max(expected_payload);
         self.outlet(channel, initial).map(|_| ())
+    }
+
+    fn claim(&mut self, name: &str, holder: &str) -> Result<(), ClaimError> {
+        let claim = claim::Claim::take(&self.node, name, holder)?;
+        self.claims.push(claim);
+        Ok(())
+    }
+
+    fn keep_claims(&mut self) -> Result<(), ClaimError> {
+        for claim in &self.claims {
+            claim.keep();
+        }
+        Ok(())
     }
 
     fn subscribe(&mut self, channel: &str) -> Result<(), SubscribeError> {

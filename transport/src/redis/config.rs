@@ -20,6 +20,9 @@ pub struct RedisConfig {
     pub connect_timeout: Duration,
     /// The deployment's frame key (`key=` or `key_file=`; see [`crate::auth`]).
     pub key: Option<crate::auth::FrameKey>,
+    /// How long a claim's lease lasts without renewal (`lease_ms`; see
+    /// [`Transport::claim`](crate::Transport::claim)).
+    pub lease: Duration,
 }
 
 impl Default for RedisConfig {
@@ -30,6 +33,7 @@ impl Default for RedisConfig {
             reconnect: true,
             connect_timeout: Duration::from_millis(250),
             key: None,
+            lease: Duration::from_secs(3),
         }
     }
 }
@@ -72,6 +76,7 @@ impl Endpoint {
                 "max_payload" => config.max_payload = number()? as usize,
                 "timeout_ms" => config.timeout = Duration::from_millis(number()?),
                 "connect_ms" => config.connect_timeout = Duration::from_millis(number()?),
+                "lease_ms" => config.lease = Duration::from_millis(number()?),
                 "reconnect" => {
                     config.reconnect = match value {
                         "1" | "true" => true,
@@ -79,7 +84,16 @@ impl Endpoint {
                         _ => return Err(invalid("`reconnect` must be 0 or 1".to_owned())),
                     }
                 }
-                _ => passed.push(setting.text),
+                // What redis-rs reads from a URL's query; anything else is a typo or a setting
+                // of another backend, refused as `shm` refuses unknown settings.
+                "protocol" | "db" | "user" | "pass" | "insecure" => passed.push(setting.text),
+                _ => {
+                    return Err(invalid(format!(
+                        "unknown setting `{key}`: the Redis backend takes max_payload, \
+                         timeout_ms, connect_ms, reconnect, lease_ms, key and key_file, and \
+                         passes protocol, db, user, pass and insecure to redis-rs"
+                    )));
+                }
             }
         }
         let redis_url = if passed.is_empty() {

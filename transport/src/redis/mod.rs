@@ -1,4 +1,4 @@
-//! The Redis backend: `redis://[user:password@]host:port[/db][?max_payload=N&timeout_ms=N&connect_ms=N&reconnect=0|1]`.
+//! The Redis backend: `redis://[user:password@]host:port[/db][?max_payload=N&timeout_ms=N&connect_ms=N&reconnect=0|1&lease_ms=N]`.
 //!
 //! Two connections per transport, as Redis requires: one made by redis-rs for `PUBLISH`, and one
 //! subscribed socket read without blocking (see [`socket`]). Messages carry the seam envelope as
@@ -20,12 +20,14 @@
 //! removed.
 //!
 //! Files: `config` (the URL, settings and server it names, passwords redacted), `connection`
-//! (commands and their answers, authentication, outages and reconnects), `replies` (what the
+//! (commands and their answers, authentication, outages and reconnects), `lease` (claims:
+//! one holder per name, see `Transport::claim`), `replies` (what the
 //! subscribed socket brings, parsed in place), `resp` (the RESP parser), `socket` (the
 //! subscriber's non-blocking socket).
 
 mod config;
 mod connection;
+mod lease;
 mod replies;
 mod resp;
 
@@ -44,7 +46,7 @@ use redis::ConnectionLike;
 
 use crate::channel::check_publish;
 use crate::envelope::{Envelope, Intake, SeqCounter, random_publisher_id};
-use crate::error::{OpenError, PublishError, ReceiveError, SubscribeError};
+use crate::error::{ClaimError, OpenError, PublishError, ReceiveError, SubscribeError};
 use crate::{Backend, MAX_CHANNEL_LEN, Message, Stats, Transport};
 use socket::Socket;
 
@@ -69,6 +71,14 @@ pub struct RedisTransport {
     subscriptions: Vec<(&'static str, String)>,
     /// Set while the server is unreachable.
     outage: Option<Outage>,
+    /// Names this transport holds (see [`Transport::claim`]).
+    leases: Vec<lease::Lease>,
+}
+
+impl Drop for RedisTransport {
+    fn drop(&mut self) {
+        self.release_leases();
+    }
 }
 
 impl RedisTransport {
@@ -92,6 +102,7 @@ impl RedisTransport {
             intake: Intake::with_key(key),
             subscriptions: Vec::new(),
             outage: None,
+            leases: Vec::new(),
         };
         transport
             .authenticate()
@@ -241,6 +252,14 @@ impl Transport for RedisTransport {
                 reason: e.to_string(),
             }),
         }
+    }
+
+    fn claim(&mut self, name: &str, holder: &str) -> Result<(), ClaimError> {
+        self.take_lease(name, holder)
+    }
+
+    fn keep_claims(&mut self) -> Result<(), ClaimError> {
+        self.keep_leases()
     }
 
     fn subscribe(&mut self, channel: &str) -> Result<(), SubscribeError> {
