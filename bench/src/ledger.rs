@@ -23,7 +23,7 @@ pub struct LedgerFile {
 }
 
 /// How a ledger file starts: the cluster whose ledger it is.
-const HEADER: &str = "# cluster ";
+pub(crate) const HEADER: &str = "# cluster ";
 
 /// How an owner line starts (written and read by [`crate::owners`]; [`follow`] skips them).
 pub const OWNER_PREFIX: &str = "owner ";

@@ -24,10 +24,10 @@ use std::collections::HashMap;
 use std::io;
 
 use seam_proxy::{Cluster, ClusterEvent, TickEvent};
-use seam_sim::wire::{EntityId, IdMap};
+use seam_sim::wire::{ClusterId, EntityId, IdMap};
 use serde::Serialize;
 
-use crate::ledger::{Life, OWNER_PREFIX as PREFIX};
+use crate::ledger::{HEADER, Life, OWNER_PREFIX as PREFIX};
 
 /// How a pod came to own an entity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,6 +58,8 @@ impl How {
 pub struct OwnerLog {
     owned: IdMap<EntityId, ()>,
     last_tick: Option<u64>,
+    /// Where each entity was last handed (from `HandoffGiven`), for its `-` line.
+    handed: IdMap<EntityId, ClusterId>,
 }
 
 impl OwnerLog {
@@ -65,6 +67,11 @@ impl OwnerLog {
     /// tick; `events` are the events of the tick just run (for how each came).
     pub fn lines(&mut self, cluster: &Cluster, events: &[TickEvent]) -> Vec<String> {
         let tick = cluster.sim().tick();
+        for e in events {
+            if let ClusterEvent::HandoffGiven { entity, to } = e.event {
+                self.handed.insert(entity, to);
+            }
+        }
         let now: IdMap<EntityId, ()> = cluster.owned().map(|id| (id, ())).collect();
         let mut lines = Vec::new();
         for id in now.keys() {
@@ -80,8 +87,13 @@ impl OwnerLog {
         }
         let last = self.last_tick.unwrap_or(tick);
         for id in self.owned.keys().filter(|id| !now.contains_key(*id)) {
-            lines.push(format!("{PREFIX}- {:032x} {last}", id.as_u128()));
+            let mut line = format!("{PREFIX}- {:032x} {last}", id.as_u128());
+            if let Some(to) = self.handed.swap_remove(id) {
+                line += &format!(" {:032x}", to.as_u128());
+            }
+            lines.push(line);
         }
+        self.handed.retain(|id, _| now.contains_key(id));
         self.owned = now;
         self.last_tick = Some(tick);
         lines
@@ -95,7 +107,12 @@ fn came(entity: EntityId, tick: u64, events: &[TickEvent]) -> (u64, How) {
             ClusterEvent::HandoffTaken {
                 entity: id, since, ..
             } if id == entity => return (since.min(tick), How::Taken),
-            ClusterEvent::EntityAdopted { entity: id, .. } if id == entity => {
+            // Adopted from a neighbour taken for dead, or a hand-off to it taken back: if the
+            // neighbour was only stalled, it still owns its copy until it is handed back.
+            ClusterEvent::EntityAdopted { entity: id, .. }
+            | ClusterEvent::HandoffReclaimed { entity: id, .. }
+                if id == entity =>
+            {
                 return (tick, How::Adopted);
             }
             _ => {}
@@ -141,6 +158,8 @@ struct Span {
     from: u64,
     to: u64,
     how: How,
+    /// The cluster it was handed to at its end, if it ended in a hand-off.
+    handed_to: Option<u128>,
 }
 
 /// At most this many examples.
@@ -151,34 +170,76 @@ const EXAMPLES: usize = 5;
 /// finish; the others until `end_tick`.
 pub fn check(lives: &[Life], end_tick: u64) -> io::Result<OwnerCheck> {
     let mut out = OwnerCheck::default();
-    let spans = read(lives, end_tick, &mut out.unreadable_lines)?;
+    let Read {
+        spans,
+        clusters,
+        killed,
+    } = read(lives, end_tick, &mut out.unreadable_lines)?;
     out.entities = spans.len();
     let mut ids: Vec<&u128> = spans.keys().collect();
     ids.sort();
+    let run = Run {
+        lives,
+        clusters: &clusters,
+        killed: &killed,
+        end_tick,
+    };
     for id in ids {
-        walk(*id, &spans[id], lives, end_tick, &mut out);
+        walk(*id, &spans[id], &run, &mut out);
     }
     Ok(out)
 }
 
-/// Each entity's spans, from every life's owner lines.
-fn read(
-    lives: &[Life],
+/// The lives of a run, the cluster whose each is, when each killed one was killed, and the
+/// run's last tick.
+struct Run<'a> {
+    lives: &'a [Life],
+    clusters: &'a [Option<u128>],
+    /// A killed life's last tick: the later of the last tick it was seen to finish and the
+    /// last tick its ledger names (progress lines come about once a second).
+    killed: &'a [Option<u64>],
     end_tick: u64,
-    unreadable: &mut u64,
-) -> io::Result<HashMap<u128, Vec<Span>>> {
+}
+
+/// What [`read`] gathers.
+struct Read {
+    spans: HashMap<u128, Vec<Span>>,
+    clusters: Vec<Option<u128>>,
+    killed: Vec<Option<u64>>,
+}
+
+/// Each entity's spans, from every life's owner lines, each life's cluster (from its
+/// ledger's first line) and, for a killed one, its last tick.
+fn read(lives: &[Life], end_tick: u64, unreadable: &mut u64) -> io::Result<Read> {
     let mut spans: HashMap<u128, Vec<Span>> = HashMap::new();
+    let mut clusters = vec![None; lives.len()];
+    let mut killed: Vec<Option<u64>> = lives.iter().map(|l| l.killed_after).collect();
     for (life, lived) in lives.iter().enumerate() {
         let text = match std::fs::read_to_string(&lived.path) {
             Ok(text) => text,
             Err(e) if e.kind() == io::ErrorKind::NotFound => continue,
             Err(e) => return Err(e),
         };
-        let last = lived.killed_after.unwrap_or(end_tick).min(end_tick);
+        if let Some(after) = lived.killed_after {
+            let seen = whole_lines(&text)
+                .filter_map(|line| {
+                    let words: Vec<&str> = line.split(' ').collect();
+                    match words.as_slice() {
+                        ["owner", _, _, tick, ..] => tick.parse::<u64>().ok(),
+                        [tick, ..] => tick.parse::<u64>().ok(),
+                        [] => None,
+                    }
+                })
+                .max();
+            killed[life] = Some(seen.map_or(after, |seen| seen.max(after)));
+        }
+        let last = killed[life].unwrap_or(end_tick).min(end_tick);
         let mut open: HashMap<u128, (u64, How)> = HashMap::new();
-        // Only whole lines: what follows the last newline was cut short by a kill.
-        let whole = text.rfind('\n').map_or("", |end| &text[..end]);
-        for line in whole.lines() {
+        for line in whole_lines(&text) {
+            if let Some(cluster) = line.strip_prefix(HEADER) {
+                clusters[life] = u128::from_str_radix(cluster, 16).ok();
+                continue;
+            }
             let Some(rest) = line.strip_prefix(PREFIX) else {
                 continue;
             };
@@ -191,10 +252,14 @@ fn read(
                     .map(|((id, tick), how)| {
                         open.insert(id, (tick, how));
                     }),
-                ["-", id, tick] => u128::from_str_radix(id, 16)
+                ["-", id, tick, rest @ ..] if rest.len() <= 1 => u128::from_str_radix(id, 16)
                     .ok()
                     .zip(tick.parse::<u64>().ok())
-                    .map(|(id, tick)| {
+                    .zip(match rest {
+                        [to] => u128::from_str_radix(to, 16).ok().map(Some),
+                        _ => Some(None),
+                    })
+                    .map(|((id, tick), handed_to)| {
                         if let Some((from, how)) = open.remove(&id) {
                             let to = tick.min(last);
                             spans.entry(id).or_default().push(Span {
@@ -202,6 +267,7 @@ fn read(
                                 from,
                                 to,
                                 how,
+                                handed_to,
                             });
                         }
                     }),
@@ -215,14 +281,25 @@ fn read(
                 from,
                 to: last,
                 how,
+                handed_to: None,
             });
         }
     }
-    Ok(spans)
+    Ok(Read {
+        spans,
+        clusters,
+        killed,
+    })
+}
+
+/// Only whole lines: what follows the last newline was cut short by a kill.
+fn whole_lines(text: &str) -> std::str::Lines<'_> {
+    text.rfind('\n').map_or("", |end| &text[..end]).lines()
 }
 
 /// Walks one entity from the first tick a life owned it to `end_tick`.
-fn walk(id: u128, spans: &[Span], lives: &[Life], end_tick: u64, out: &mut OwnerCheck) {
+fn walk(id: u128, spans: &[Span], run: &Run<'_>, out: &mut OwnerCheck) {
+    let (lives, end_tick) = (run.lives, run.end_tick);
     let Some(start) = spans.iter().map(|s| s.from).min() else {
         return;
     };
@@ -238,7 +315,7 @@ fn walk(id: u128, spans: &[Span], lives: &[Life], end_tick: u64, out: &mut Owner
                 out.owned_once += 1;
                 None
             }
-            0 if after_a_kill(spans, lives, tick) => {
+            0 if after_a_kill(spans, run, tick) => {
                 out.awaiting_adoption += 1;
                 None
             }
@@ -271,13 +348,33 @@ fn walk(id: u128, spans: &[Span], lives: &[Life], end_tick: u64, out: &mut Owner
     }
 }
 
-/// Whether the latest span to end before `tick` was a killed life's, ended at its kill.
-fn after_a_kill(spans: &[Span], lives: &[Life], tick: u64) -> bool {
-    spans
+/// Ticks before its kill a pod may still be handed a body it then never takes (its
+/// neighbours take it for dead only after `neighbour_timeout_ticks` of silence; twice the
+/// default, for pods catching up).
+const HANDED_TO_THE_DEAD: u64 = 120;
+
+/// Whether the latest span to end before `tick` was a killed life's, ended at its kill; or
+/// ended in a hand-off to a cluster whose life was killed around then (in transit to a dead
+/// pod, taken back when it is taken for dead).
+fn after_a_kill(spans: &[Span], run: &Run<'_>, tick: u64) -> bool {
+    let Some(last) = spans.iter().filter(|s| s.to < tick).max_by_key(|s| s.to) else {
+        return false;
+    };
+    if run.killed[last.life] == Some(last.to) {
+        return true;
+    }
+    let Some(to) = last.handed_to else {
+        return false;
+    };
+    run.killed
         .iter()
-        .filter(|s| s.to < tick)
-        .max_by_key(|s| s.to)
-        .is_some_and(|s| lives[s.life].killed_after == Some(s.to))
+        .zip(run.clusters)
+        .any(|(killed, &cluster)| {
+            cluster == Some(to)
+                && killed.is_some_and(|killed| {
+                    killed < tick && killed <= last.to + 5 && killed + HANDED_TO_THE_DEAD >= last.to
+                })
+        })
 }
 
 fn example(
@@ -312,7 +409,11 @@ mod tests {
 
     fn life(dir: &std::path::Path, name: &str, lines: &[&str], killed_after: Option<u64>) -> Life {
         let path = dir.join(format!("{name}.ledger"));
-        let mut text = lines.join("\n");
+        let cluster = name
+            .bytes()
+            .fold(0u128, |h, b| h * 31 + u128::from(b) % 7 + 1);
+        let mut text = format!("{HEADER}{cluster:032x}\n");
+        text += &lines.join("\n");
         text.push('\n');
         std::fs::write(&path, text).expect("write");
         Life { path, killed_after }
@@ -369,6 +470,34 @@ mod tests {
         assert!(found.holds(), "{found:?}");
         assert_eq!(found.awaiting_adoption, 60);
         assert_eq!(found.owned_once, 40);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_body_in_transit_to_a_killed_pod_awaits_adoption_not_loss() {
+        let dir = dir("transit");
+        let e = id(11);
+        let dead = life(&dir, "east", &[], Some(50));
+        let east = "east"
+            .bytes()
+            .fold(0u128, |h, b| h * 31 + u128::from(b) % 7 + 1);
+        let giver = life(
+            &dir,
+            "west",
+            &[
+                &format!("owner + {e} 1 own"),
+                &format!("owner - {e} 60 {east:032x}"),
+                &format!("owner + {e} 80 adopted"),
+            ],
+            None,
+        );
+        let found = check(&[dead.clone(), giver.clone()], 100).expect("check");
+        assert!(found.holds(), "{found:?}");
+        assert_eq!(found.awaiting_adoption, 19);
+        // Handed to a pod alive all along: the gap is a loss.
+        let alive = life(&dir, "east", &[], None);
+        let found = check(&[alive, giver], 100).expect("check");
+        assert_eq!(found.unowned, 19, "{found:?}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

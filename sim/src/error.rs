@@ -6,8 +6,13 @@ use crate::wire::EntityId;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum SimError {
-    /// No entity with this id is in this world.
-    #[error("entity {0} is not in this cluster's world")]
+    /// No entity with this id is in this world: neither owned here nor modelled as a proxy.
+    /// A write reaches only what the cluster models (its region grown by the spread, the room
+    /// around its own bodies, and what `Cluster::watch` adds): an entity owned elsewhere and
+    /// out of sight cannot be written to from here.
+    #[error(
+        "entity {0} is not in this cluster's world: not owned here and not modelled (writes          reach what the cluster models: its region and spread, the room around its own bodies,          and what Cluster::watch adds)"
+    )]
     UnknownEntity(EntityId),
     /// The entity is already in this world.
     #[error("entity {0} is already in this cluster's world")]

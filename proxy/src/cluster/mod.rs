@@ -370,6 +370,15 @@ impl Cluster {
         Ok(())
     }
 
+    /// Keeps this cluster's claim on its id (see [`Cluster::new`]): an error once another pod
+    /// took it over.
+    fn keep_claim(&mut self) -> Result<(), ClusterError> {
+        let cluster = self.config.cluster_id;
+        self.transport
+            .keep_claims()
+            .map_err(|source| ClusterError::AlreadyRunning { cluster, source })
+    }
+
     /// Hands an entity this cluster owns to a neighbour. It happens at the next replication
     /// frame: that frame carries the entity's final pose and velocity with the new owner, this
     /// cluster turns its body into a proxy, and the new owner turns its proxy into the body.

@@ -114,7 +114,9 @@ impl Cluster {
         let mut handoffs = Vec::new();
         policy.decide(&view, &mut handoffs);
         for (entity, to) in handoffs {
-            if self.handoffs.is_queued(entity) {
+            // Held for a neighbour taken for dead until it is back (a policy may name one as
+            // a member of a group it sees in contact, not from `owned`).
+            if self.handoffs.is_queued(entity) || self.custody.adopted_from(entity).is_some() {
                 continue;
             }
             if handoff::check(&self.sim, &self.config, &self.neighbours, entity, to).is_ok() {

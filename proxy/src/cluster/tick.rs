@@ -155,13 +155,7 @@ impl Cluster {
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
         self.begun = true;
-        let me = self.config.cluster_id;
-        self.transport
-            .keep_claims()
-            .map_err(|source| ClusterError::AlreadyRunning {
-                cluster: me,
-                source,
-            })?;
+        self.keep_claim()?;
         self.handoffs.new_tick();
         self.reconcile(frames.replication);
         handoff::return_overdue(
@@ -236,6 +230,7 @@ impl Cluster {
             proxies: &mut self.proxies,
             predictions: &mut self.predictions,
             free_running: self.free_running,
+            yielded: Vec::new(),
         };
         reconcile.early_handoffs();
         let keep_last = !self.config.world.is_empty();
@@ -245,6 +240,8 @@ impl Cluster {
                 self.custody.keep_last(frame);
             }
         }
+        let yielded = std::mem::take(&mut reconcile.yielded);
+        self.custody.yielded(&yielded, &mut self.events);
     }
 
     /// Neighbours heard leaving last tick are taken as left (their last replication frame,

@@ -331,9 +331,8 @@ pub enum ClusterEvent {
         entity: EntityId,
         /// The old owner.
         from: ClusterId,
-        /// The first tick it is this cluster's: the one after the tick its old owner handed it
-        /// over in (a free-running pod whose frame arrived late takes it later, but owns it
-        /// from then: the old owner stopped counting it).
+        /// The first tick it is this cluster's: the one after the tick it was handed in, however
+        /// late its frame came.
         since: u64,
     },
     /// A hand-off to a neighbour that left before taking it was taken back.
@@ -343,23 +342,19 @@ pub enum ClusterEvent {
         /// The neighbour that left.
         from: ClusterId,
     },
-    /// A hand-off a live neighbour did not answer within `neighbour_timeout_ticks` came back
-    /// (logged): it is not taking it (it does not list this cluster as a neighbour, say).
-    HandoffReturned {
-        /// The entity.
-        entity: EntityId,
-        /// The neighbour that did not take it.
-        to: ClusterId,
-    },
-    /// An entity this cluster took over was claimed back by the cluster that handed it here,
-    /// at a later epoch (it had given up waiting, see `HandoffReturned`): this copy became its
-    /// proxy.
+    /// A hand-off a live neighbour did not take within `neighbour_timeout_ticks` came back.
+    #[allow(missing_docs)]
+    HandoffReturned { entity: EntityId, to: ClusterId },
+    /// An entity owned here was claimed at a later epoch by its sender: this copy is its proxy.
     HandoffYielded {
         /// The entity.
         entity: EntityId,
         /// The cluster that claimed it back.
         to: ClusterId,
     },
+    /// An adopted entity was yielded to a later claim (`HandoffYielded`): nothing to return.
+    #[allow(missing_docs)]
+    AdoptionYielded { entity: EntityId, from: ClusterId },
     /// A hand-off to a neighbour taken for dead before it took it was taken back.
     HandoffReclaimed {
         /// The entity.

@@ -165,6 +165,9 @@ pub struct ClusterStats {
     pub handoffs_yielded: u64,
     /// Adopted entities handed back to their owner when it was heard from again.
     pub entities_returned: u64,
+    /// Adopted entities (or hand-offs taken back) claimed at a later epoch by another cluster
+    /// and yielded to it: not returned, nothing to return.
+    pub adoptions_yielded: u64,
     /// Frames tagged further ahead than a live sender could be (see the crate docs on
     /// liveness): dropped as forged.
     pub frames_implausible: u64,
@@ -273,6 +276,7 @@ impl ClusterStats {
             E::HandoffReclaimed { .. } => self.handoffs_reclaimed += 1,
             E::HandoffReturned { .. } => self.handoffs_returned += 1,
             E::HandoffYielded { .. } => self.handoffs_yielded += 1,
+            E::AdoptionYielded { .. } => self.adoptions_yielded += 1,
             E::NeighbourLost { .. } => self.neighbours_lost += 1,
             E::NeighbourLeft { .. } => self.neighbours_left += 1,
             E::NeighbourRejoined { .. } => self.neighbours_rejoined += 1,

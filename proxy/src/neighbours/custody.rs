@@ -49,6 +49,16 @@ impl Custody {
         self.adopted.get(&entity).copied()
     }
 
+    /// Entities this cluster owned and yielded to a later claim: an adopted one among them is
+    /// that claimant's now, with nothing to return (counted).
+    pub(crate) fn yielded(&mut self, entities: &[EntityId], events: &mut Events) {
+        for &entity in entities {
+            if let Some(from) = self.adopted.swap_remove(&entity) {
+                events.emit(ClusterEvent::AdoptionYielded { entity, from });
+            }
+        }
+    }
+
     /// `entity` is handed on: this cluster no longer holds it for anyone.
     pub(crate) fn release(&mut self, entity: EntityId) {
         self.adopted.swap_remove(&entity);

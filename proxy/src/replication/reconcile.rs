@@ -23,6 +23,8 @@ pub(crate) struct Reconcile<'a> {
     pub(crate) predictions: &'a mut Predictions,
     /// Ticking free-running: a hand-off from the next tick is held until then.
     pub(crate) free_running: bool,
+    /// Entities this cluster owned and yielded to a later claim (see `yield_to`).
+    pub(crate) yielded: Vec<EntityId>,
 }
 
 /// A state this cluster does not take (rejected, counted).
@@ -209,6 +211,7 @@ impl Reconcile<'_> {
             entity: state.id,
             to: from,
         });
+        self.yielded.push(state.id);
         tracing::warn!(
             cluster = %self.config.cluster_id,
             entity = %state.id,

@@ -48,11 +48,19 @@ impl Courier<RoutedOp> for Owner<'_> {
     fn note(&mut self, name: Name, what: Resend) {
         let event = match what {
             Resend::Resent(to) => ClusterEvent::OpResent { name, to },
-            Resend::GivenUp => ClusterEvent::OpDropped {
-                name,
-                reason: OpDrop::Expired,
-                adopted_from: None,
-            },
+            Resend::GivenUp => {
+                tracing::warn!(
+                    cluster = %self.config.cluster_id,
+                    issuer = %name.issuer,
+                    seq = name.seq,
+                    "routed op given up: its owner never answered it (not running, or gone)"
+                );
+                ClusterEvent::OpDropped {
+                    name,
+                    reason: OpDrop::Expired,
+                    adopted_from: None,
+                }
+            }
             Resend::NoRoom => ClusterEvent::OpDropped {
                 name,
                 reason: OpDrop::QueueFull,

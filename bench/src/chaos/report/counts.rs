@@ -307,6 +307,9 @@ pub struct RecoveryCounts {
     pub entities_returned: u64,
     /// Hand-offs a dead neighbour never took, taken back.
     pub handoffs_reclaimed: u64,
+    /// Adopted (or taken back) and then claimed at a later epoch by a third cluster, which
+    /// had taken the entity from the dead or stalled one first: nothing to return.
+    pub adoptions_yielded: u64,
     /// Connections to the server lost.
     pub disconnects: u64,
     /// Re-established.

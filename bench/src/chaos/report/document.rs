@@ -224,14 +224,15 @@ fn recovery_lines(r: &ChaosReport) -> String {
     let rc = &r.recovery;
     format!(
         "recovery: {} neighbours taken for dead, {} rejoined; {} entities adopted and {} \
-         hand-offs reclaimed, {} returned{}; {} disconnects, {} reconnects, {:.1} s down (pods \
-         summed), {} publishes dropped while down\n\
+         hand-offs reclaimed, {} returned, {} yielded to a later claim{}; {} disconnects, {} \
+         reconnects, {:.1} s down (pods summed), {} publishes dropped while down\n\
          panics: {}; pods that ended badly: {}",
         rc.neighbours_lost,
         rc.neighbours_rejoined,
         rc.entities_adopted,
         rc.handoffs_reclaimed,
         rc.entities_returned,
+        rc.adoptions_yielded,
         mark(r.adoptions_returned()),
         rc.disconnects,
         rc.reconnects,

@@ -188,6 +188,7 @@ impl ChaosReport {
         recovery.neighbours_rejoined = s.neighbours_rejoined;
         recovery.entities_adopted = s.entities_adopted;
         recovery.entities_returned = s.entities_returned;
+        recovery.adoptions_yielded = s.adoptions_yielded;
         recovery.handoffs_reclaimed = s.handoffs_reclaimed;
         Self {
             scene: scene.name.clone(),
@@ -239,10 +240,10 @@ impl ChaosReport {
     }
 
     /// Whether every entity adopted from a dead or stopped pod, and every hand-off to it taken
-    /// back, was handed back to it.
+    /// back, was handed back to it, or yielded to a later claim of a third cluster.
     pub fn adoptions_returned(&self) -> bool {
         let r = &self.recovery;
-        r.entities_adopted + r.handoffs_reclaimed == r.entities_returned
+        r.entities_adopted + r.handoffs_reclaimed == r.entities_returned + r.adoptions_yielded
     }
 
     /// Whether the pods' ledgers name every op and contact report their counters count (a
