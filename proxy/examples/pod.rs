@@ -88,7 +88,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         cluster.tick(|_, _| {})?;
         if due.tick % 40 == 39 {
             let say = |id| match cluster.sim().info(id) {
-                Some(info) if info.owner == cluster.id() => "owned here",
+                Some(_) if cluster.owns(id) => "owned here",
                 Some(_) => "a proxy",
                 None => "not here",
             };
