@@ -16,6 +16,28 @@ macro_rules! counters {
                 $(self.$field += other.$field;)*
             }
         }
+
+        /// The counters that are not zero, one `name value` a line, in the struct's order
+        /// (`{:#}`: on one line, comma-separated); "nothing counted" when all are.
+        impl std::fmt::Display for $name {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                let counted: Vec<(&str, u64)> = [$((stringify!($field), self.$field)),*]
+                    .into_iter()
+                    .filter(|&(_, n)| n > 0)
+                    .collect();
+                if counted.is_empty() {
+                    return f.write_str("nothing counted");
+                }
+                let separator = if f.alternate() { ", " } else { "\n" };
+                for (i, (name, n)) in counted.into_iter().enumerate() {
+                    if i > 0 {
+                        f.write_str(separator)?;
+                    }
+                    write!(f, "{name} {n}")?;
+                }
+                Ok(())
+            }
+        }
     };
 }
 
@@ -376,5 +398,15 @@ mod tests {
             (two.ops_dropped(), two.frames_refused(), two.ticks),
             (14, 10, 14)
         );
+    }
+
+    #[test]
+    fn display_lists_what_was_counted() {
+        let mut stats = ClusterStats::default();
+        assert_eq!(stats.to_string(), "nothing counted");
+        stats.ticks = 3;
+        stats.handoffs_returned = 1;
+        assert_eq!(stats.to_string(), "ticks 3\nhandoffs_returned 1");
+        assert_eq!(format!("{stats:#}"), "ticks 3, handoffs_returned 1");
     }
 }
