@@ -204,7 +204,8 @@ fn one_owner_each(
     changed
 }
 
-fn every_body_has_one_owner_at_every_tick_in_lockstep(ctx: &TestContext) {
+/// The row on the test's transport with [`balls`] spawned by their owners.
+fn row_with_balls(ctx: &TestContext) -> (Vec<Cluster>, Vec<(usize, EntityState)>) {
     let configs = row(&ctx.url(), mapped);
     let mut clusters: Vec<Cluster> = configs
         .iter()
@@ -216,6 +217,11 @@ fn every_body_has_one_owner_at_every_tick_in_lockstep(ctx: &TestContext) {
             .spawn_owned(ball, BodyRole::Dynamic)
             .expect("spawn");
     }
+    (clusters, balls)
+}
+
+fn every_body_has_one_owner_at_every_tick_in_lockstep(ctx: &TestContext) {
+    let (mut clusters, balls) = row_with_balls(ctx);
     let mut last: Vec<usize> = balls.iter().map(|(i, _)| *i).collect();
     let mut handed = 0;
     for tick in 0..240 {
@@ -231,17 +237,7 @@ fn every_body_has_one_owner_at_every_tick_in_lockstep(ctx: &TestContext) {
 }
 
 fn every_body_has_one_owner_at_every_tick_free_running(ctx: &TestContext) {
-    let configs = row(&ctx.url(), mapped);
-    let mut clusters: Vec<Cluster> = configs
-        .iter()
-        .map(|c| Cluster::new(c.clone()).expect("cluster"))
-        .collect();
-    let balls = balls(&configs);
-    for (i, ball) in &balls {
-        clusters[*i]
-            .spawn_owned(ball, BodyRole::Dynamic)
-            .expect("spawn");
-    }
+    let (mut clusters, balls) = row_with_balls(ctx);
     let mut last: Vec<usize> = balls.iter().map(|(i, _)| *i).collect();
     let mut handed = 0;
     for tick in 0..240 {

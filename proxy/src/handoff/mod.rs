@@ -179,7 +179,6 @@ impl Handoffs {
         events: &mut Events,
     ) -> Result<(), ClusterError> {
         self.queued.clear();
-        self.given_last.clear();
         for handed in handing {
             let entity = handed.id;
             sim.set_authority(entity, handed.cluster_id, handed.epoch)?;
