@@ -6,6 +6,8 @@
 use rapier3d::prelude::*;
 
 use crate::entity::{BodyRole, EntityInfo};
+use crate::error::SimError;
+use crate::shapes::ShapeCatalog;
 use crate::wire::{EntityId, EntityState, PhysicsOp, Shape};
 
 /// Bodies moved or added outside a step whose query bounds are not refreshed yet. Queries
@@ -35,17 +37,35 @@ fn collision_types() -> ActiveCollisionTypes {
         | ActiveCollisionTypes::KINEMATIC_FIXED
 }
 
-pub(crate) fn collider_for(shape: &Shape) -> ColliderBuilder {
-    match *shape {
-        Shape::Ball { radius } => ColliderBuilder::ball(radius),
+/// Rapier's shape for a primitive (`None` for a catalog shape).
+pub(crate) fn primitive(shape: &Shape) -> Option<SharedShape> {
+    Some(match *shape {
+        Shape::Ball { radius } => SharedShape::ball(radius),
         Shape::Cuboid {
             half_extents: [x, y, z],
-        } => ColliderBuilder::cuboid(x, y, z),
+        } => SharedShape::cuboid(x, y, z),
         Shape::Capsule {
             half_height,
             radius,
-        } => ColliderBuilder::capsule_y(half_height, radius),
-    }
+        } => SharedShape::capsule_y(half_height, radius),
+        Shape::Catalog { .. } => return None,
+    })
+}
+
+/// The collider of a (validated) body spec's shape; a catalog shape must be registered.
+pub(crate) fn collider_for(
+    entity: EntityId,
+    shape: &Shape,
+    catalog: &ShapeCatalog,
+) -> Result<ColliderBuilder, SimError> {
+    let shape = match *shape {
+        Shape::Catalog { id, .. } => catalog
+            .rapier(id)
+            .cloned()
+            .ok_or(SimError::UnknownShapeOf { entity, shape: id })?,
+        _ => primitive(shape).ok_or(SimError::UnknownEntity(entity))?,
+    };
+    Ok(ColliderBuilder::new(shape))
 }
 
 pub(crate) fn pose_of(position: [f32; 3], rotation: [f32; 4]) -> Pose {
@@ -56,22 +76,35 @@ pub(crate) fn pose_of(position: [f32; 3], rotation: [f32; 4]) -> Pose {
     )
 }
 
-/// Creates the body and collider of a (validated) state.
+/// Creates the body and collider of a (validated) state; a catalog shape must be in `catalog`.
 pub(crate) fn insert(
     world: &mut PhysicsWorld,
     stale: &mut StaleBounds,
+    catalog: &ShapeCatalog,
     state: &EntityState,
     role: BodyRole,
-) -> Entry {
+) -> Result<Entry, SimError> {
     let data = state.id.as_u128();
+    let spec = &state.body;
     let body = RigidBodyBuilder::new(role.rapier())
         .pose(pose_of(state.position, state.rotation))
         .linvel(Vector::from_array(state.linvel))
         .angvel(Vector::from_array(state.angvel))
-        .ccd_enabled(state.body.ccd)
+        .ccd_enabled(spec.ccd)
+        .linear_damping(spec.material.linear_damping)
+        .angular_damping(spec.material.angular_damping)
         .user_data(data);
-    let collider = collider_for(&state.body.shape)
-        .density(state.body.density)
+    let groups = InteractionGroups::new(
+        Group::from_bits_retain(spec.groups.memberships),
+        Group::from_bits_retain(spec.groups.filter),
+        InteractionTestMode::And,
+    );
+    let collider = collider_for(state.id, &spec.shape, catalog)?
+        .density(spec.density)
+        .friction(spec.material.friction)
+        .restitution(spec.material.restitution)
+        .collision_groups(groups)
+        .sensor(spec.sensor)
         .user_data(data)
         .active_events(ActiveEvents::COLLISION_EVENTS)
         .active_collision_types(collision_types());
@@ -89,7 +122,7 @@ pub(crate) fn insert(
         posed_tick: 0,
     };
     stale.push((entry.body, entry.collider));
-    entry
+    Ok(entry)
 }
 
 /// Reads an entity's state back.

@@ -11,6 +11,7 @@ use crate::error::SimError;
 use crate::handle::{PhysicsHandle, TickContext};
 use crate::joints::Joints;
 use crate::router::WriteRouter;
+use crate::shapes::{ShapeCatalog, ShapeDef};
 use crate::touching;
 use crate::validate;
 use crate::wire::{ClusterId, EntityId, EntityState, IdMap, Motion, PhysicsOp};
@@ -34,6 +35,8 @@ pub struct ClusterSim {
     contacts: Vec<ContactEvent>,
     /// Entities game code spawned through the handle, added once its code has run.
     spawned: Vec<(EntityState, BodyRole)>,
+    /// The shapes registered here (see [`ShapeCatalog`]).
+    catalog: ShapeCatalog,
 }
 
 impl ClusterSim {
@@ -55,7 +58,20 @@ impl ClusterSim {
             collector: ContactCollector::default(),
             contacts: Vec::new(),
             spawned: Vec::new(),
+            catalog: ShapeCatalog::default(),
         }
+    }
+
+    /// Registers a shape too large to travel with every state (see [`ShapeCatalog`]); every
+    /// cluster of a world registers the same ones. Returns the [`Shape`](crate::wire::Shape)
+    /// that names it.
+    pub fn register_shape(&mut self, def: ShapeDef) -> Result<crate::wire::Shape, SimError> {
+        self.catalog.add(def)
+    }
+
+    /// The shapes registered here.
+    pub fn shapes(&self) -> &ShapeCatalog {
+        &self.catalog
     }
 
     /// This cluster's id.
@@ -138,6 +154,7 @@ impl ClusterSim {
     /// Adds an entity with `role`, at the state's pose and velocity.
     pub fn spawn(&mut self, state: &EntityState, role: BodyRole) -> Result<(), SimError> {
         validate::state(state)?;
+        validate::against_catalog(state, role, &self.catalog)?;
         if self.entities.contains_key(&state.id) {
             return Err(SimError::DuplicateEntity(state.id));
         }
@@ -146,7 +163,13 @@ impl ClusterSim {
             // What its neighbours are told of how it moves.
             state.body.motion = Motion::of(role);
         }
-        let mut entry = body::insert(&mut self.world, &mut self.stale, &state, role);
+        let mut entry = body::insert(
+            &mut self.world,
+            &mut self.stale,
+            &self.catalog,
+            &state,
+            role,
+        )?;
         entry.posed_tick = self.tick;
         self.entities.insert(state.id, entry);
         Ok(())
@@ -339,6 +362,7 @@ impl ClusterSim {
             spawned: &mut self.spawned,
             router,
             max_op_magnitude: self.config.max_op_magnitude,
+            catalog: &self.catalog,
         };
         (context, handle)
     }

@@ -11,7 +11,9 @@ pub enum SimError {
     /// around its own bodies, and what `Cluster::watch` adds): an entity owned elsewhere and
     /// out of sight cannot be written to from here.
     #[error(
-        "entity {0} is not in this cluster's world: not owned here and not modelled (writes          reach what the cluster models: its region and spread, the room around its own bodies,          and what Cluster::watch adds)"
+        "entity {0} is not in this cluster's world: not owned here and not modelled (writes \
+         reach what the cluster models: its region and spread, the room around its own bodies, \
+         and what Cluster::watch adds)"
     )]
     UnknownEntity(EntityId),
     /// The entity is already in this world.
@@ -54,6 +56,29 @@ pub enum SimError {
         entity: EntityId,
         /// What is wrong.
         reason: &'static str,
+    },
+    /// A catalog shape cannot be built.
+    #[error("catalog shape {id} is invalid: {reason}")]
+    BadCatalogShape {
+        /// Its content hash.
+        id: crate::wire::ShapeId,
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// No shape with this content hash is registered here.
+    #[error("no catalog shape {0} is registered in this world")]
+    UnknownShape(crate::wire::ShapeId),
+    /// An entity's body names a catalog shape this world has not registered: every cluster of
+    /// a world must register the same shapes.
+    #[error(
+        "entity {entity} has catalog shape {shape}, which this world has not registered \
+         (every cluster of a world registers the same shapes)"
+    )]
+    UnknownShapeOf {
+        /// The entity.
+        entity: EntityId,
+        /// The shape's content hash.
+        shape: crate::wire::ShapeId,
     },
     /// The write targets scenery, which no cluster owns and nothing moves.
     #[error("entity {0} is scenery: static, loaded by every cluster, owned by none")]

@@ -76,6 +76,8 @@ pub struct PhysicsHandle<'a> {
     pub(crate) router: &'a mut dyn WriteRouter,
     /// `SimConfig::max_op_magnitude`.
     pub(crate) max_op_magnitude: f32,
+    /// The world's registered shapes.
+    pub(crate) catalog: &'a crate::shapes::ShapeCatalog,
 }
 
 impl PhysicsHandle<'_> {
@@ -155,7 +157,7 @@ impl PhysicsHandle<'_> {
     }
 
     /// The entities whose shapes intersect `shape` placed at `position` with `rotation`, in id
-    /// order.
+    /// order (none for a catalog shape this world has not registered).
     pub fn intersections_with_shape(
         &mut self,
         shape: &Shape,
@@ -163,7 +165,10 @@ impl PhysicsHandle<'_> {
         rotation: [f32; 4],
     ) -> Vec<EntityId> {
         body::refresh_bounds(self.world, self.stale);
-        let collider = body::collider_for(shape).build();
+        let Ok(collider) = body::collider_for(EntityId::from_u128(0), shape, self.catalog) else {
+            return Vec::new();
+        };
+        let collider = collider.build();
         let pose = body::pose_of(position, rotation);
         let mut hits: Vec<EntityId> = self
             .world
@@ -267,6 +272,7 @@ impl PhysicsHandle<'_> {
     /// replication frame is this tick's. Its state's `cluster_id` is set to this cluster.
     pub fn spawn(&mut self, state: &EntityState, role: BodyRole) -> Result<(), SimError> {
         validate::state(state)?;
+        validate::against_catalog(state, role, self.catalog)?;
         if self.entities.contains_key(&state.id)
             || self.spawned.iter().any(|(s, _)| s.id == state.id)
         {

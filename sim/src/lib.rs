@@ -4,7 +4,7 @@
 //!
 //! ```
 //! use seam_sim::{BodyRole, ClusterSim, LocalOnly, SimConfig};
-//! use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Motion, Shape};
+//! use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Shape};
 //!
 //! let here = ClusterId::random();
 //! let mut sim = ClusterSim::new(SimConfig::new(here));
@@ -19,7 +19,7 @@
 //!         rotation: [0.0, 0.0, 0.0, 1.0],
 //!         linvel: [0.0; 3],
 //!         angvel: [0.0; 3],
-//!         body: BodySpec { shape: Shape::Ball { radius: 0.5 }, density: 1.0, ccd: false, motion: Motion::Simulated },
+//!         body: BodySpec::new(Shape::Ball { radius: 0.5 }).density(1.0),
 //!     },
 //!     BodyRole::Dynamic,
 //! )?;
@@ -70,6 +70,7 @@ mod error;
 mod handle;
 mod joints;
 mod router;
+pub mod shapes;
 mod touching;
 mod validate;
 pub mod wire;
@@ -83,5 +84,6 @@ pub use error::SimError;
 pub use handle::{PhysicsHandle, RayHit, TickContext};
 pub use joints::{JointId, JointSpec};
 pub use router::{LocalOnly, WriteOutcome, WriteRouter};
+pub use shapes::{Part, ShapeCatalog, ShapeDef};
 pub use touching::Touching;
 pub use validate::check_state;

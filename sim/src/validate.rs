@@ -1,6 +1,8 @@
 //! Checks on values that come from user code or from the wire, before they reach Rapier.
 
+use crate::entity::BodyRole;
 use crate::error::SimError;
+use crate::shapes::ShapeCatalog;
 use crate::wire::{BodySpec, EntityId, EntityState, PhysicsOp, Shape};
 
 /// Largest quaternion norm error accepted (rotations are renormalised after the check).
@@ -40,27 +42,67 @@ pub(crate) fn op(op: &PhysicsOp, bound: f32) -> Result<(), SimError> {
     Ok(())
 }
 
-/// Checks a shape descriptor.
-pub(crate) fn body_spec(entity: EntityId, body: &BodySpec) -> Result<(), SimError> {
-    let positive = |x: f32| x.is_finite() && x > 0.0;
-    let ok = match body.shape {
+fn positive(x: f32) -> bool {
+    x.is_finite() && x > 0.0
+}
+
+/// Whether a primitive's sizes are positive and finite (a catalog shape is not a primitive).
+pub(crate) fn primitive_ok(shape: &Shape) -> bool {
+    match *shape {
         Shape::Ball { radius } => positive(radius),
         Shape::Cuboid { half_extents } => half_extents.iter().all(|&h| positive(h)),
         Shape::Capsule {
             half_height,
             radius,
         } => positive(radius) && half_height.is_finite() && half_height >= 0.0,
+        Shape::Catalog { .. } => false,
+    }
+}
+
+/// Checks a body spec: sizes, density and material.
+pub(crate) fn body_spec(entity: EntityId, body: &BodySpec) -> Result<(), SimError> {
+    let bad = |reason| Err(SimError::BadShape { entity, reason });
+    let ok = match body.shape {
+        Shape::Catalog { bound, .. } => positive(bound),
+        _ => primitive_ok(&body.shape),
     };
     if !ok {
-        return Err(SimError::BadShape {
-            entity,
-            reason: "dimensions must be positive and finite",
-        });
+        return bad("dimensions must be positive and finite");
     }
     if !positive(body.density) {
+        return bad("density must be positive and finite");
+    }
+    let m = body.material;
+    let at_least_zero = |x: f32| x.is_finite() && x >= 0.0;
+    if !(at_least_zero(m.friction)
+        && at_least_zero(m.restitution)
+        && at_least_zero(m.linear_damping)
+        && at_least_zero(m.angular_damping))
+    {
+        return bad("friction, restitution and damping must be finite and at least 0");
+    }
+    Ok(())
+}
+
+/// Checks that a state's catalog shape is registered here and, for a body simulated here, has
+/// a volume (a triangle mesh or heightfield is for scenery and bodies moved by their owner).
+pub(crate) fn against_catalog(
+    state: &EntityState,
+    role: BodyRole,
+    catalog: &ShapeCatalog,
+) -> Result<(), SimError> {
+    let Shape::Catalog { id, .. } = state.body.shape else {
+        return Ok(());
+    };
+    let def = catalog.def(id).ok_or(SimError::UnknownShapeOf {
+        entity: state.id,
+        shape: id,
+    })?;
+    if role == BodyRole::Dynamic && !def.has_volume() {
         return Err(SimError::BadShape {
-            entity,
-            reason: "density must be positive and finite",
+            entity: state.id,
+            reason: "a triangle mesh or heightfield has no volume: it is for scenery and bodies \
+                     moved by their owner (fixed, kinematic), not simulated ones",
         });
     }
     Ok(())

@@ -22,21 +22,26 @@ fn state(i: u32) -> EntityState {
         rotation: [0.0, 0.0, 0.0, 1.0],
         linvel: [0.5, 0.0, 1e3],
         angvel: [0.0, -1.0, 0.0],
-        body: BodySpec {
-            shape: match i % 3 {
-                0 => Shape::Ball { radius: 0.5 },
-                1 => Shape::Cuboid {
-                    half_extents: [1.0, 2.0, 3.0],
-                },
-                _ => Shape::Capsule {
-                    half_height: 0.9,
-                    radius: 0.3,
-                },
+        body: BodySpec::new(match i % 4 {
+            0 => Shape::Ball { radius: 0.5 },
+            1 => Shape::Cuboid {
+                half_extents: [1.0, 2.0, 3.0],
             },
-            density: 1000.0,
-            ccd: i.is_multiple_of(2),
-            motion: seam_sim::wire::Motion::Simulated,
-        },
+            2 => Shape::Capsule {
+                half_height: 0.9,
+                radius: 0.3,
+            },
+            _ => Shape::Catalog {
+                id: seam_sim::wire::ShapeId(0x0123_4567_89ab_cdef),
+                bound: 1.25,
+            },
+        })
+        .ccd(i.is_multiple_of(2))
+        .friction(0.1 * (i % 4) as f32)
+        .restitution(if i % 4 == 1 { 0.8 } else { 0.0 })
+        .damping(0.01 * (i % 4) as f32, 0.5)
+        .groups(1 << (i % 4), !0 ^ (1 << (i % 4)))
+        .sensor(i % 4 == 2),
     }
 }
 
@@ -189,10 +194,10 @@ fn quantized_states_come_back_within_their_resolution() {
 #[test]
 fn a_state_costs_its_record_and_the_tables_are_shared() {
     let frame = replication();
-    // 20 states of one owner and six specs (three shapes, each with and without CCD).
+    // 20 states of one owner and four specs (four shapes, each with its material).
     for (encoding, record) in [(StateEncoding::Exact, 77), (StateEncoding::Quantized, 55)] {
         let len = frame.encoded_len(encoding).expect("encodes");
-        assert_eq!(len, 20 + 16 + 6 * 20 + 20 * record);
+        assert_eq!(len, 20 + 16 + 4 * 44 + 20 * record);
         assert_eq!(encoding.record_len(), record);
     }
 }
@@ -242,8 +247,8 @@ fn framing_errors_are_named() {
 fn a_bad_record_is_an_error_in_its_place_and_the_others_read() {
     let frame = replication();
     let mut bytes = encode(&frame);
-    // Header 20, one owner 16, six specs 120; record 5's owner index is at offset 22.
-    let record = |i: usize| 20 + 16 + 120 + i * 77;
+    // Header 20, one owner 16, four specs 176; record 5's owner index is at offset 22.
+    let record = |i: usize| 20 + 16 + 176 + i * 77;
     bytes[record(5) + 22] = 9;
     // Record 7's spec index points past the table.
     bytes[record(7) + 23] = 200;
@@ -431,8 +436,8 @@ fn a_body_motion_round_trips_and_both_flags_are_malformed() {
     let mut bytes = encode(&frame);
     assert_eq!(ReplicationFrame::decode(&bytes), Ok(frame.clone()));
     // Header 20, one owner 16; the spec table follows, the kinematic body's second: flags at
-    // byte 1 of each 20-byte spec.
-    let flags = 20 + 16 + 20 + 1;
+    // byte 1 of each 44-byte spec.
+    let flags = 20 + 16 + 44 + 1;
     assert_eq!(
         bytes[flags] & 6,
         4,

@@ -20,7 +20,7 @@ fn body(id: EntityId, owner: ClusterId, x: f32, vx: f32, shape: Shape, mass: f32
         Shape::Cuboid {
             half_extents: [a, b, c],
         } => 8.0 * a * b * c,
-        Shape::Capsule { .. } => unreachable!("not used here"),
+        Shape::Capsule { .. } | Shape::Catalog { .. } => unreachable!("not used here"),
     };
     let body = BodySpec::new(shape).density(mass / volume).ccd(true);
     EntityState::new(id, owner, body)

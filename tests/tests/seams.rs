@@ -37,6 +37,8 @@ fn scenes() -> Vec<Scene> {
         "equal-masses",
         "seam-stack",
         "platform",
+        "terrain",
+        "hull-pile",
     ] {
         assert!(
             scenes.iter().any(|s| s.name == name),

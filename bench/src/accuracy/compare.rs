@@ -2,8 +2,8 @@
 
 use std::collections::{BTreeMap, HashSet};
 
-use seam_sim::BodyRole;
 use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap, Shape};
+use seam_sim::{BodyRole, ShapeCatalog};
 use serde::Serialize;
 
 use seam_proxy::Region;
@@ -143,9 +143,11 @@ impl WorldBounds {
     }
 }
 
-fn mass(state: &EntityState) -> f64 {
+/// An entity's mass, kg; a catalog shape's volume from `catalog`.
+fn mass(state: &EntityState, catalog: &ShapeCatalog) -> f64 {
     use std::f64::consts::PI;
     let volume = match state.body.shape {
+        Shape::Catalog { id, .. } => f64::from(catalog.volume(id).unwrap_or(0.0)),
         Shape::Ball { radius } => 4.0 / 3.0 * PI * f64::from(radius).powi(3),
         Shape::Cuboid {
             half_extents: [x, y, z],
@@ -301,6 +303,7 @@ impl Comparison {
     pub fn observe(&mut self, reference: &Pod, pods: &[Pod]) {
         self.tick += 1;
         let tick = self.tick;
+        let catalog = reference.cluster().sim().shapes();
         let truth: IdMap<EntityId, EntityState> = simulated(reference).map(|s| (s.id, s)).collect();
         let projectiles: HashSet<EntityId> = reference.projectiles().iter().copied().collect();
         let mut seen: IdMap<EntityId, ClusterId> = IdMap::default();
@@ -313,7 +316,7 @@ impl Comparison {
                     self.acc.duplicate_owner_ticks += 1;
                     continue;
                 }
-                let m = mass(&state);
+                let m = mass(&state, catalog);
                 for (p, v) in p_split.iter_mut().zip(state.linvel) {
                     *p += m * f64::from(v);
                 }
@@ -337,7 +340,7 @@ impl Comparison {
         }
         let mut speed_sum = 0.0;
         for state in truth.values() {
-            let m = mass(state);
+            let m = mass(state, catalog);
             for (p, v) in p_ref.iter_mut().zip(state.linvel) {
                 *p += m * f64::from(v);
             }

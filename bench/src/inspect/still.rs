@@ -87,14 +87,14 @@ impl View {
             self.ox + f64::from(x) * self.scale,
             self.oz + f64::from(z) * self.scale,
         );
-        let corners: Vec<(f64, f64)> = match *shape {
-            SceneShape::Cuboid { half_extents } => {
-                let hx = (f64::from(half_extents[0]) * self.scale).max(0.75);
-                let hz = (f64::from(half_extents[2]) * self.scale).max(0.75);
+        let corners: Vec<(f64, f64)> = match shape.footprint() {
+            Some([x, z]) => {
+                let hx = (f64::from(x) * self.scale).max(0.75);
+                let hz = (f64::from(z) * self.scale).max(0.75);
                 vec![(hx, hz), (-hx, hz), (-hx, -hz), (hx, -hz)]
             }
-            SceneShape::Ball { radius } | SceneShape::Capsule { radius, .. } => {
-                let r = (f64::from(radius) * self.scale).max(1.2);
+            None => {
+                let r = (f64::from(shape.radius()) * self.scale).max(1.2);
                 (0..12)
                     .map(|k| {
                         let a = f64::from(k) / 12.0 * std::f64::consts::TAU;
@@ -239,7 +239,7 @@ impl Canvas<'_, '_> {
 
     /// The scenery every cluster loads, faint.
     fn scenery(&self, header: &Header) -> BenchResult<()> {
-        let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
+        let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape.clone());
         for p in &header.scenery {
             if let Some(shape) = shape_of(p.entity) {
                 let outline = self
@@ -294,7 +294,7 @@ impl Canvas<'_, '_> {
 
     /// The proxies world `t` holds, outlined in their owner's colour where their owner has them.
     fn proxies(&self, header: &Header, t: &StreamTick, pose: &Pose) -> BenchResult<()> {
-        let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
+        let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape.clone());
         for e in &t.proxies {
             let (Some(&(x, z, heading, owner)), Some(shape)) = (pose.get(e), shape_of(*e)) else {
                 continue;
@@ -313,7 +313,7 @@ impl Canvas<'_, '_> {
     fn handoffs(&self, recording: &Recording, tick: u64, pose: &Pose) -> BenchResult<()> {
         let header = &recording.header;
         let reference = header.reference_stream();
-        let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape);
+        let shape_of = |entity: u32| header.group_of(entity).map(|g| g.shape.clone());
         // Where each entity was last owned up to this tick, for bodies in a hand-off now.
         let mut latest: HashMap<u32, (f32, f32, u8, u64)> = HashMap::new();
         for chunk in &recording.chunks {

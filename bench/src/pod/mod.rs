@@ -117,6 +117,9 @@ pub enum PodError {
     /// The cluster could not start (transport, spawn).
     #[error(transparent)]
     Cluster(#[from] ClusterError),
+    /// A scene shape is none a body can have.
+    #[error("shape: {0}")]
+    Shape(String),
 }
 
 /// One cluster playing its part of a scene.
@@ -185,19 +188,39 @@ pub(crate) fn scene_world_map(
     world_map(&clusters)
 }
 
-/// The wire shape of a scene shape.
-pub fn wire_shape(shape: &SceneShape) -> Shape {
-    match *shape {
-        SceneShape::Ball { radius } => Shape::Ball { radius },
-        SceneShape::Cuboid { half_extents } => Shape::Cuboid { half_extents },
-        SceneShape::Capsule {
-            half_height,
-            radius,
-        } => Shape::Capsule {
-            half_height,
-            radius,
-        },
+/// The wire shape of a scene shape: a primitive as it is, a catalog shape registered in
+/// `cluster`'s catalog first (every pod of a run registers the same ones).
+pub fn wire_shape(shape: &SceneShape, cluster: &mut Cluster) -> Result<Shape, PodError> {
+    if let Some(primitive) = shape.primitive() {
+        return Ok(primitive);
     }
+    let def = shape.catalog_def().ok_or_else(|| {
+        PodError::Shape("a compound's parts are balls, cuboids and capsules".into())
+    })?;
+    Ok(cluster.register_shape(def)?)
+}
+
+/// The body spec of a scene entity: its shape (registered in `cluster`'s catalog if it is
+/// one), density from its mass, CCD, material, groups, sensor.
+fn entity_body(entity: &scene::Entity, cluster: &mut Cluster) -> Result<BodySpec, PodError> {
+    let volume = entity.shape.volume();
+    // A mesh or a heightfield has no volume: it is never simulated, so its density is moot.
+    let density = if volume > 0.0 {
+        entity.mass() / volume
+    } else {
+        1.0
+    };
+    let mut body = BodySpec::new(wire_shape(&entity.shape, cluster)?)
+        .density(density)
+        .ccd(entity.ccd)
+        .friction(entity.friction)
+        .restitution(entity.restitution)
+        .damping(entity.linear_damping, entity.angular_damping)
+        .sensor(entity.sensor);
+    if let Some(groups) = entity.groups {
+        body = body.groups(groups.memberships, groups.filter);
+    }
+    Ok(body)
 }
 
 /// The body role of an owned scene role (`None` for scenery, which nobody owns).
@@ -259,12 +282,7 @@ fn spawn_entities(
     let mut entities: HashMap<String, Vec<EntityId>> = HashMap::new();
     let mut spawns: Vec<(EntityState, Option<BodyRole>)> = Vec::new();
     for entity in &scene.entities {
-        let body = BodySpec {
-            shape: wire_shape(&entity.shape),
-            density: entity.mass() / entity.shape.volume(),
-            ccd: entity.ccd,
-            motion: seam_sim::wire::Motion::Simulated,
-        };
+        let body = entity_body(entity, cluster)?;
         let grid = entity.grid.unwrap_or(scene::Grid {
             count: [1, 1, 1],
             spacing: [0.0; 3],
@@ -684,7 +702,7 @@ impl Pod {
                     ..
                 } if self.plays.contains(by) => {
                     let shape = SceneShape::Ball { radius: *radius };
-                    let body = BodySpec::new(wire_shape(&shape))
+                    let body = BodySpec::new(Shape::ball(*radius))
                         .density(mass / shape.volume())
                         .ccd(*ccd);
                     let state = EntityState {

@@ -67,7 +67,7 @@ impl EntityTable {
                 name: entity.name.clone(),
                 first,
                 copies: next - first,
-                shape: entity.shape,
+                shape: entity.shape.clone(),
                 role: role_name(entity.role).into(),
             });
         }

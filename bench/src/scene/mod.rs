@@ -44,12 +44,25 @@
 //! impulse = 200.0
 //! ```
 //!
+//! An entity may set its material (`friction`, 0.5 unless set; `restitution`;
+//! `linear_damping`; `angular_damping`), its collision `groups` (`{ memberships = 1, filter =
+//! 0xffffffff }`: two bodies meet when each one's memberships share a bit with the other's
+//! filter) and `sensor = true` (it pushes nothing and reports what enters and leaves it).
+//! Besides `ball`, `cuboid` and `capsule`, a shape may be a `convex_hull` (`points`), a
+//! `compound` (`parts`, each a primitive `shape` at a `position` and `rotation`), a `trimesh`
+//! (`vertices`, `triangles`) or a `heightfield` (`heights`, one list per row from -z to +z,
+//! and `size` = [x extent, height scale, z extent]); every pod registers these in its shape
+//! catalog and they travel by content hash. Meshes and heightfields have no volume: scenery,
+//! fixed and kinematic bodies only (`bench/scenes/terrain.toml`, `hull-pile.toml`).
+//!
 //! Loading checks everything a run relies on (known clusters and entities, finite numbers,
 //! positive sizes) and reports a bad file as `FILE:LINE:COLUMN: field \`NAME\`: what is wrong`.
 
 mod model;
+mod shape;
 
-pub use model::{Cluster, Entity, Event, Grid, Region, Role, Scene, SceneShape, Vec3, host_name};
+pub use model::{Cluster, Entity, Event, Grid, Region, Role, Scene, SceneGroups, Vec3, host_name};
+pub use shape::{ScenePart, SceneShape};
 
 use std::path::Path;
 

@@ -2,6 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::SceneShape;
 use crate::error::{BenchError, BenchResult};
 
 /// x, y, z.
@@ -79,57 +80,6 @@ pub struct Region {
     pub max: Vec3,
 }
 
-/// A collision shape.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
-#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
-pub enum SceneShape {
-    /// A sphere.
-    Ball {
-        /// Radius, m.
-        radius: f32,
-    },
-    /// A box.
-    Cuboid {
-        /// Half sizes, m.
-        half_extents: Vec3,
-    },
-    /// A capsule along y.
-    Capsule {
-        /// Half the straight part, m.
-        half_height: f32,
-        /// Radius, m.
-        radius: f32,
-    },
-}
-
-impl SceneShape {
-    /// Volume in m³.
-    pub fn volume(&self) -> f32 {
-        use std::f32::consts::PI;
-        match *self {
-            SceneShape::Ball { radius } => 4.0 / 3.0 * PI * radius.powi(3),
-            SceneShape::Cuboid {
-                half_extents: [x, y, z],
-            } => 8.0 * x * y * z,
-            SceneShape::Capsule {
-                half_height,
-                radius,
-            } => PI * radius * radius * (2.0 * half_height + 4.0 / 3.0 * radius),
-        }
-    }
-
-    fn sizes(&self) -> Vec<f32> {
-        match *self {
-            SceneShape::Ball { radius } => vec![radius],
-            SceneShape::Cuboid { half_extents } => half_extents.to_vec(),
-            SceneShape::Capsule {
-                half_height,
-                radius,
-            } => vec![half_height.max(f32::MIN_POSITIVE), radius],
-        }
-    }
-}
-
 /// How the owner simulates an entity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -190,9 +140,42 @@ pub struct Entity {
     /// Repeat it over a lattice.
     #[serde(default)]
     pub grid: Option<Grid>,
+    /// Friction coefficient (0.5 unless set).
+    #[serde(default = "default_friction")]
+    pub friction: f32,
+    /// Restitution, 0 (no bounce) to 1.
+    #[serde(default)]
+    pub restitution: f32,
+    /// Linear damping, 1/s.
+    #[serde(default)]
+    pub linear_damping: f32,
+    /// Angular damping, 1/s.
+    #[serde(default)]
+    pub angular_damping: f32,
+    /// Collision groups (every group, meeting every group, unless set).
+    #[serde(default)]
+    pub groups: Option<SceneGroups>,
+    /// A sensor: reports what enters and leaves it, pushes nothing.
+    #[serde(default)]
+    pub sensor: bool,
 }
 
-fn identity() -> [f32; 4] {
+/// Collision groups: two bodies meet when each one's `memberships` share a bit with the
+/// other's `filter`.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneGroups {
+    /// The groups it is in (bits).
+    pub memberships: u32,
+    /// The groups it meets (bits).
+    pub filter: u32,
+}
+
+fn default_friction() -> f32 {
+    0.5
+}
+
+pub(super) fn identity() -> [f32; 4] {
     [0.0, 0.0, 0.0, 1.0]
 }
 
@@ -536,13 +519,26 @@ impl Scene {
             }
             (None, true) => {}
         }
-        if !entity
-            .shape
-            .sizes()
-            .iter()
-            .all(|&s| s.is_finite() && s > 0.0)
-        {
-            return bad("field `shape`: sizes must be positive");
+        if let Some(problem) = entity.shape.problem() {
+            return bad(&format!("field `shape`: {problem}"));
+        }
+        if entity.role == Role::Dynamic && !entity.shape.has_volume() {
+            return bad(
+                "field `shape`: a trimesh or heightfield has no volume: it is for scenery, \
+                 fixed and kinematic bodies",
+            );
+        }
+        let material = [
+            entity.friction,
+            entity.restitution,
+            entity.linear_damping,
+            entity.angular_damping,
+        ];
+        if !material.iter().all(|m| m.is_finite() && *m >= 0.0) {
+            return bad(
+                "fields `friction`, `restitution`, `linear_damping`, `angular_damping` must be \
+                 finite and at least 0",
+            );
         }
         match entity.mass {
             Some(mass) if !positive(mass) => return bad("field `mass` must be positive"),

@@ -245,3 +245,40 @@ fn every_bundled_scene_loads() {
     }
     load(&scene_file("variants/crossfire-owner-blasts.toml")).expect("the variant loads");
 }
+
+#[test]
+fn catalog_shapes_and_materials_load_and_bad_ones_say_why() {
+    let base = r#"name = "t"
+[[cluster]]
+name = "a"
+region = { min = [-1, -1, -1], max = [1, 1, 1] }
+
+[[entity]]
+name = "rock"
+owner = "a"
+mass = 3.0
+position = [0, 0, 0]
+friction = 0.9
+restitution = 0.4
+groups = { memberships = 1, filter = 0xfffffffe }
+sensor = true
+shape = { kind = "convex_hull", points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]] }
+"#;
+    let scene = parse("rock.toml", base).expect("valid");
+    let rock = &scene.entities[0];
+    assert!((rock.shape.volume() - 1.0 / 6.0).abs() < 1e-4);
+    assert_eq!(
+        (rock.friction, rock.restitution, rock.sensor),
+        (0.9, 0.4, true)
+    );
+    assert_eq!(rock.groups.map(|g| g.filter), Some(0xffff_fffe));
+    let flat = base.replace("[0, 0, 1]]", "[1, 1, 0]]");
+    assert!(error(&flat).contains("span no volume"), "{}", error(&flat));
+    let field = base.replace(
+        r#"{ kind = "convex_hull", points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]] }"#,
+        r#"{ kind = "heightfield", heights = [[0, 0], [0, 1]], size = [2, 1, 2] }"#,
+    );
+    assert!(error(&field).contains("no volume"), "{}", error(&field));
+    let sticky = base.replace("friction = 0.9", "friction = -1.0");
+    assert!(error(&sticky).contains("friction"), "{}", error(&sticky));
+}

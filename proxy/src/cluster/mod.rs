@@ -4,6 +4,8 @@
 //! # Layout
 //!
 //! - here: [`Cluster`], its parts, and what game code calls between ticks.
+//! - `bodies` — what game code adds to the world and changes in it: owned bodies, scenery,
+//!   catalog shapes, roles.
 //! - `tick` — the ways to run a tick (free-running, lock-step in one call or two halves) and
 //!   `run_until_exchange` and `finish_tick`, the list of phases.
 //! - `exchange` — the exchange before the step: this tick's ops and own writes out, the
@@ -12,8 +14,8 @@
 //! - `publish` — this tick's frames out: replication (with the policy's hand-offs) and one
 //!   physics-events frame per neighbour.
 
-use seam_sim::wire::{ClusterId, EntityId, EntityState, PhysicsEventsFrame, Stage};
-use seam_sim::{BodyRole, ClusterSim, SimConfig};
+use seam_sim::wire::{ClusterId, EntityId, PhysicsEventsFrame, Stage};
+use seam_sim::{ClusterSim, SimConfig};
 use seam_transport::Transport;
 
 use crate::authority::{AuthorityMode, AuthorityPolicy, Group, Spatial};
@@ -31,6 +33,7 @@ use crate::replication::{CustomProxy, Interest, Keys, Proxies, Publisher};
 use crate::routing::Routing;
 use crate::world::Region;
 
+mod bodies;
 mod exchange;
 mod publish;
 mod receive;
@@ -344,30 +347,6 @@ impl Cluster {
     /// Sets the hook that moves proxies in [`ProxyMode::Custom`](crate::ProxyMode::Custom).
     pub fn set_custom_proxy(&mut self, proxy: Box<dyn CustomProxy>) {
         self.proxies.set_custom(proxy);
-    }
-
-    /// Adds an entity this cluster owns, with `role` (dynamic for what it simulates; Fixed or
-    /// kinematic for scenery it moves itself). Its state's `cluster_id` is set to this cluster.
-    pub fn spawn_owned(&mut self, state: &EntityState, role: BodyRole) -> Result<(), ClusterError> {
-        let state = EntityState {
-            cluster_id: self.id(),
-            ..*state
-        };
-        self.sim.spawn(&state, role)?;
-        Ok(())
-    }
-
-    /// Adds scenery: static level geometry (terrain, floors, walls) that every cluster loads
-    /// itself. It is a Fixed body owned by no cluster ([`ClusterId::SCENERY`]): never
-    /// replicated, never handed over, never adopted; writes on it are refused, and contacts
-    /// with it are nobody's to report. Every cluster of a world must add the same scenery.
-    pub fn spawn_scenery(&mut self, state: &EntityState) -> Result<(), ClusterError> {
-        let state = EntityState {
-            cluster_id: ClusterId::SCENERY,
-            ..*state
-        };
-        self.sim.spawn(&state, BodyRole::Fixed)?;
-        Ok(())
     }
 
     /// Keeps this cluster's claim on its id (see [`Cluster::new`]): an error once another pod

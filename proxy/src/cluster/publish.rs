@@ -116,7 +116,15 @@ impl Cluster {
         for (entity, to) in handoffs {
             // Held for a neighbour taken for dead until it is back (a policy may name one as
             // a member of a group it sees in contact, not from `owned`).
-            if self.handoffs.is_queued(entity) || self.custody.adopted_from(entity).is_some() {
+            // Nor handed again, for four neighbour timeouts, where a hand-off of it came back
+            // untaken.
+            let span = 4 * self.config.neighbour_timeout_ticks;
+            if self.handoffs.is_queued(entity)
+                || self.custody.adopted_from(entity).is_some()
+                || self
+                    .handoffs
+                    .came_back_from(entity, to, self.sim.tick(), span)
+            {
                 continue;
             }
             if handoff::check(&self.sim, &self.config, &self.neighbours, entity, to).is_ok() {

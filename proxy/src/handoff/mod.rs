@@ -129,9 +129,28 @@ pub(crate) struct Handoffs {
     /// cluster that sent each: taken at the tick the state belongs to, so the body is not
     /// stepped twice for one tick.
     early: IdMap<EntityId, (EntityState, ClusterId)>,
+    /// Entities whose hand-off came back untaken, with the cluster that did not take it and
+    /// the tick it came back: the policy does not hand them there again for a while (a
+    /// neighbour that cannot model a body, its shape unregistered there say, would leave it
+    /// unowned each time).
+    refused_by: IdMap<EntityId, (ClusterId, u64)>,
 }
 
 impl Handoffs {
+    /// Whether a hand-off of `entity` to `to` came back untaken less than `span` ticks
+    /// before `tick`.
+    pub(crate) fn came_back_from(
+        &self,
+        entity: EntityId,
+        to: ClusterId,
+        tick: u64,
+        span: u64,
+    ) -> bool {
+        self.refused_by
+            .get(&entity)
+            .is_some_and(|&(by, at)| by == to && tick.saturating_sub(at) < span)
+    }
+
     /// Queues `entity` to be handed to `to` at the next replication frame (checked by
     /// [`check`] first).
     pub(crate) fn queue(&mut self, entity: EntityId, to: ClusterId) {
@@ -218,6 +237,7 @@ impl Handoffs {
             .collect();
         for handed in &overdue {
             self.in_transit.swap_remove(&handed.id);
+            self.refused_by.insert(handed.id, (handed.cluster_id, tick));
         }
         overdue
     }

@@ -65,6 +65,8 @@ fn half_extent(shape: &Shape, rotation: [f32; 4]) -> [f32; 3] {
             let m = matrix(rotation);
             [0, 1, 2].map(|i| m[i][1].abs() * half_height + radius)
         }
+        // A sphere about the origin holding the whole shape, however turned.
+        Shape::Catalog { bound, .. } => [bound; 3],
     }
 }
 

@@ -15,7 +15,7 @@
 //! assert_eq!(crate_.rotation, [0.0, 0.0, 0.0, 1.0]);
 //! ```
 
-use super::{BodySpec, ClusterId, EntityId, EntityState, Motion, Shape};
+use super::{BodySpec, ClusterId, EntityId, EntityState, Groups, Material, Motion, Shape};
 
 impl Shape {
     /// A sphere of `radius` metres.
@@ -41,14 +41,63 @@ impl Shape {
 }
 
 impl BodySpec {
-    /// `shape` with density 1 000 kg/m³ (water), no CCD, simulated by its owner.
+    /// `shape` with density 1 000 kg/m³ (water), no CCD, simulated by its owner, Rapier's
+    /// default material, in every collision group, not a sensor.
     pub fn new(shape: Shape) -> Self {
         Self {
             shape,
             density: 1000.0,
             ccd: false,
             motion: Motion::Simulated,
+            material: Material::default(),
+            groups: Groups::default(),
+            sensor: false,
         }
+    }
+
+    /// Moved by its owner as `motion` says (simulated, kinematic or still).
+    pub fn motion(self, motion: Motion) -> Self {
+        Self { motion, ..self }
+    }
+
+    /// With `material` (friction, restitution, damping) whole.
+    pub fn material(self, material: Material) -> Self {
+        Self { material, ..self }
+    }
+
+    /// With friction coefficient `friction`.
+    pub fn friction(mut self, friction: f32) -> Self {
+        self.material.friction = friction;
+        self
+    }
+
+    /// With restitution `restitution` (0: no bounce, 1: a perfect one).
+    pub fn restitution(mut self, restitution: f32) -> Self {
+        self.material.restitution = restitution;
+        self
+    }
+
+    /// With linear and angular damping, 1/s.
+    pub fn damping(mut self, linear: f32, angular: f32) -> Self {
+        self.material.linear_damping = linear;
+        self.material.angular_damping = angular;
+        self
+    }
+
+    /// In the groups `memberships`, meeting bodies in `filter` (see [`Groups`]).
+    pub fn groups(self, memberships: u32, filter: u32) -> Self {
+        Self {
+            groups: Groups {
+                memberships,
+                filter,
+            },
+            ..self
+        }
+    }
+
+    /// A sensor (or not): it reports what enters and leaves it and pushes nothing.
+    pub fn sensor(self, sensor: bool) -> Self {
+        Self { sensor, ..self }
     }
 
     /// With `density`, kg/m³ (mass = density × volume).
@@ -127,8 +176,48 @@ mod tests {
                 density: 1000.0,
                 ccd: true,
                 motion: Motion::Simulated,
+                material: Material::default(),
+                groups: Groups::default(),
+                sensor: false,
             },
         };
         assert_eq!(built, literal);
+    }
+
+    #[test]
+    fn every_spec_field_has_a_setter() {
+        let spec = BodySpec::new(Shape::capsule(0.5, 0.25))
+            .density(300.0)
+            .ccd(true)
+            .motion(Motion::Kinematic)
+            .friction(0.9)
+            .restitution(0.7)
+            .damping(0.1, 0.2)
+            .groups(0b01, 0b10)
+            .sensor(true);
+        let literal = BodySpec {
+            shape: Shape::capsule(0.5, 0.25),
+            density: 300.0,
+            ccd: true,
+            motion: Motion::Kinematic,
+            material: Material {
+                friction: 0.9,
+                restitution: 0.7,
+                linear_damping: 0.1,
+                angular_damping: 0.2,
+            },
+            groups: Groups {
+                memberships: 0b01,
+                filter: 0b10,
+            },
+            sensor: true,
+        };
+        assert_eq!(spec, literal);
+        assert_eq!(
+            BodySpec::new(Shape::ball(1.0))
+                .material(literal.material)
+                .material,
+            literal.material
+        );
     }
 }

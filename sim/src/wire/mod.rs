@@ -24,7 +24,9 @@ pub use codec::{WireError, decode, encode, encode_into, encoded_len};
 pub use events::{
     ContactReport, OpAck, PhysicsEventsFrame, PhysicsOp, RoutedOp, SeamImpulseReport, Stage,
 };
-pub use state::{BodySpec, EntityState, Motion, ReplicationFrame, Shape};
+pub use state::{
+    BodySpec, EntityState, Groups, Material, Motion, ReplicationFrame, Shape, ShapeId,
+};
 
 /// The format version every frame starts with.
-pub const WIRE_VERSION: u8 = 8;
+pub const WIRE_VERSION: u8 = 9;

@@ -5,7 +5,10 @@ use serde::{Deserialize, Serialize};
 
 use super::ids::{ClusterId, EntityId};
 
-/// A collision shape, as small as a proxy needs.
+/// A collision shape, as small as a proxy needs: a primitive by its sizes, or a shape of the
+/// world's [`ShapeCatalog`](crate::ShapeCatalog) (convex hull, compound, triangle mesh,
+/// heightfield) by its content hash, which every cluster of the world registers itself: the
+/// shape's points travel once, with the catalog, never per tick.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum Shape {
     /// A sphere.
@@ -25,6 +28,70 @@ pub enum Shape {
         /// Radius in metres.
         radius: f32,
     },
+    /// A shape of the catalog.
+    Catalog {
+        /// Its content hash.
+        id: ShapeId,
+        /// The radius of a sphere about the body origin holding the whole shape, metres (what
+        /// interest and bounds need without the catalog).
+        bound: f32,
+    },
+}
+
+/// A catalog shape's content hash: the first 8 bytes of the BLAKE3 hash of its definition, so
+/// two clusters naming the same id mean the same points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct ShapeId(pub u64);
+
+impl std::fmt::Display for ShapeId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:016x}", self.0)
+    }
+}
+
+/// What a body's surface is like and how it loses motion.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    /// Friction coefficient (Rapier's default 0.5; the two bodies' are averaged).
+    pub friction: f32,
+    /// Restitution: 0 no bounce, 1 a perfect one (the two bodies' are averaged).
+    pub restitution: f32,
+    /// Linear damping, 1/s: the fraction of linear velocity lost per second, roughly.
+    pub linear_damping: f32,
+    /// Angular damping, 1/s.
+    pub angular_damping: f32,
+}
+
+impl Default for Material {
+    /// Rapier's defaults: friction 0.5, no bounce, no damping.
+    fn default() -> Self {
+        Self {
+            friction: 0.5,
+            restitution: 0.0,
+            linear_damping: 0.0,
+            angular_damping: 0.0,
+        }
+    }
+}
+
+/// Collision groups: two bodies meet when each one's `memberships` share a bit with the
+/// other's `filter` (Rapier's `InteractionGroups`, tested both ways).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Groups {
+    /// The groups the body is in (one bit each).
+    pub memberships: u32,
+    /// The groups it meets.
+    pub filter: u32,
+}
+
+impl Default for Groups {
+    /// In every group, meeting every group.
+    fn default() -> Self {
+        Self {
+            memberships: u32::MAX,
+            filter: u32::MAX,
+        }
+    }
 }
 
 /// How an entity's owner moves its body.
@@ -67,9 +134,11 @@ impl Motion {
 }
 
 /// The spec of the body an entity is, beyond its pose: shape, density, whether it needs
-/// continuous collision detection, and how its owner moves it. It travels with every state so
-/// a cluster that takes authority over an entity simulates it with the same mass and CCD as
-/// the previous owner, and moves it the same way.
+/// continuous collision detection, how its owner moves it, its material, collision groups and
+/// whether it is a sensor. It travels with every state (once per distinct spec a frame) so a
+/// neighbour's proxy meets bodies as the entity does, and a cluster that takes authority over
+/// an entity simulates it with the same mass, surface and CCD as the previous owner, and moves
+/// it the same way. Build one with [`BodySpec::new`] and its setters.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct BodySpec {
     /// The collision shape.
@@ -81,6 +150,13 @@ pub struct BodySpec {
     /// How its owner moves it; an adopter or new owner gives the body back the role it had
     /// (see [`Motion::owner_role`]).
     pub motion: Motion,
+    /// Friction, restitution, damping.
+    pub material: Material,
+    /// Which bodies it meets.
+    pub groups: Groups,
+    /// A sensor: it pushes nothing and is pushed by nothing, and reports bodies entering and
+    /// leaving it as contacts (started / stopped), routed to owners as contacts are.
+    pub sensor: bool,
 }
 
 /// One entity's replicated state: the spine every neighbour receives. Its wire form is a

@@ -4,7 +4,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use super::WireResult;
-use crate::wire::{BodySpec, Motion, Shape, WireError};
+use crate::wire::{BodySpec, Groups, Material, Motion, Shape, ShapeId, WireError};
 
 #[derive(Clone, Copy, Pod, Zeroable)]
 #[repr(C)]
@@ -27,6 +27,10 @@ pub(super) struct SpecRecord {
     pub(super) reserved: [u8; 2],
     pub(super) density: [u8; 4],
     pub(super) sizes: [u8; 12],
+    /// Friction, restitution, linear and angular damping.
+    pub(super) material: [u8; 16],
+    /// Memberships, filter.
+    pub(super) groups: [u8; 8],
 }
 
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -86,6 +90,10 @@ const FLAG_SIMULATED: u8 = 2;
 /// `FLAG_SIMULATED`. A spec with neither is [`Motion::Still`], as frames from before the flag
 /// read.
 const FLAG_KINEMATIC: u8 = 4;
+/// A sensor.
+const FLAG_SENSOR: u8 = 8;
+/// `SpecRecord::kind` of a catalog shape: sizes hold its id (u64) and bound (f32).
+const KIND_CATALOG: u8 = 3;
 
 pub(super) fn malformed(what: impl Into<String>) -> WireError {
     WireError::Malformed(what.into())
@@ -109,25 +117,43 @@ pub(super) fn read_floats<const N: usize>(bytes: &[u8]) -> [f32; N] {
 
 pub(super) fn spec_record(spec: &BodySpec) -> SpecRecord {
     let (kind, sizes) = match spec.shape {
-        Shape::Ball { radius } => (0, [radius, 0.0, 0.0]),
-        Shape::Cuboid { half_extents } => (1, half_extents),
+        Shape::Ball { radius } => (0, floats([radius, 0.0, 0.0])),
+        Shape::Cuboid { half_extents } => (1, floats(half_extents)),
         Shape::Capsule {
             half_height,
             radius,
-        } => (2, [half_height, radius, 0.0]),
+        } => (2, floats([half_height, radius, 0.0])),
+        Shape::Catalog { id, bound } => {
+            let mut sizes = [0u8; 12];
+            sizes[..8].copy_from_slice(&id.0.to_le_bytes());
+            sizes[8..].copy_from_slice(&bound.to_le_bytes());
+            (KIND_CATALOG, sizes)
+        }
     };
     let motion = match spec.motion {
         Motion::Simulated => FLAG_SIMULATED,
         Motion::Kinematic => FLAG_KINEMATIC,
         Motion::Still => 0,
     };
-    let flags = if spec.ccd { FLAG_CCD } else { 0 } | motion;
+    let flags =
+        if spec.ccd { FLAG_CCD } else { 0 } | if spec.sensor { FLAG_SENSOR } else { 0 } | motion;
+    let m = spec.material;
+    let mut groups = [0u8; 8];
+    groups[..4].copy_from_slice(&spec.groups.memberships.to_le_bytes());
+    groups[4..].copy_from_slice(&spec.groups.filter.to_le_bytes());
     SpecRecord {
         kind,
         flags,
         reserved: [0; 2],
         density: spec.density.to_le_bytes(),
-        sizes: floats(sizes),
+        sizes,
+        material: floats([
+            m.friction,
+            m.restitution,
+            m.linear_damping,
+            m.angular_damping,
+        ]),
+        groups,
     }
 }
 
@@ -142,6 +168,14 @@ pub(super) fn read_spec(record: &SpecRecord) -> WireResult<BodySpec> {
             half_height: a,
             radius: b,
         },
+        KIND_CATALOG => {
+            let mut id = [0u8; 8];
+            id.copy_from_slice(&record.sizes[..8]);
+            Shape::Catalog {
+                id: ShapeId(u64::from_le_bytes(id)),
+                bound: c,
+            }
+        }
         kind => return Err(malformed(format!("unknown shape kind {kind}"))),
     };
     let motion = match (
@@ -153,15 +187,33 @@ pub(super) fn read_spec(record: &SpecRecord) -> WireResult<BodySpec> {
         (false, false) => Motion::Still,
         (true, true) => return Err(malformed("a body both simulated and kinematic")),
     };
+    let [friction, restitution, linear_damping, angular_damping] = read_floats(&record.material);
+    let word = |i: usize| {
+        let b = &record.groups[i * 4..i * 4 + 4];
+        u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+    };
     Ok(BodySpec {
         shape,
         density: f32::from_le_bytes(record.density),
         ccd: record.flags & FLAG_CCD != 0,
         motion,
+        material: Material {
+            friction,
+            restitution,
+            linear_damping,
+            angular_damping,
+        },
+        groups: Groups {
+            memberships: word(0),
+            filter: word(1),
+        },
+        sensor: record.flags & FLAG_SENSOR != 0,
     })
 }
 
 /// Bit-exact key of a body spec, to share one table entry between equal specs.
 pub(super) fn spec_key(spec: &BodySpec) -> [u8; SPEC_LEN] {
-    bytemuck::cast(spec_record(spec))
+    let mut key = [0u8; SPEC_LEN];
+    key.copy_from_slice(bytemuck::bytes_of(&spec_record(spec)));
+    key
 }

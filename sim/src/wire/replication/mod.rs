@@ -5,7 +5,9 @@
 //! header   20 bytes   version, encoding, owner count (u8), kind (u8: 0 full, 1 delta),
 //!                     spec count (u16), 0 0, tick (u64), state count (u32)
 //! owners   16 bytes each   the owner table; the first is the publisher
-//! specs    20 bytes each   the body-spec table (shape kind, flags, 0 0, density, 3 sizes)
+//! specs    44 bytes each   the body-spec table (shape kind, flags, 0 0, density, 3 sizes or a
+//!                         catalog id (u64) and bound, friction, restitution, linear and
+//!                         angular damping, collision memberships and filter (u32 each))
 //! delta    delta frames only: the keyframe's tick (u64) and state count (u32), then one bit
 //!          per keyframe state, set where that state is unchanged
 //! states   77 bytes each (exact) or 55 (quantized)
@@ -165,7 +167,7 @@ mod tests {
     #[test]
     fn records_have_the_documented_sizes() {
         assert_eq!(HEADER_LEN, 20);
-        assert_eq!(SPEC_LEN, 20);
+        assert_eq!(SPEC_LEN, 44);
         assert_eq!(StateEncoding::Exact.record_len(), 77);
         assert_eq!(StateEncoding::Quantized.record_len(), 55);
     }

@@ -1,0 +1,64 @@
+//! What game code adds to a cluster's world and changes in it: bodies it owns, scenery, the
+//! shapes of the world's catalog, a body's role.
+
+use seam_sim::wire::{ClusterId, EntityId, EntityState, Shape};
+use seam_sim::{BodyRole, ShapeDef, SimError};
+
+use super::Cluster;
+use crate::error::ClusterError;
+
+impl Cluster {
+    /// Adds an entity this cluster owns, with `role` (dynamic for what it simulates; Fixed or
+    /// kinematic for scenery it moves itself). Its state's `cluster_id` is set to this cluster.
+    pub fn spawn_owned(&mut self, state: &EntityState, role: BodyRole) -> Result<(), ClusterError> {
+        let state = EntityState {
+            cluster_id: self.id(),
+            ..*state
+        };
+        self.sim.spawn(&state, role)?;
+        Ok(())
+    }
+
+    /// Adds scenery: static level geometry (terrain, floors, walls) that every cluster loads
+    /// itself. It is a Fixed body owned by no cluster ([`ClusterId::SCENERY`]): never
+    /// replicated, never handed over, never adopted; writes on it are refused, and contacts
+    /// with it are nobody's to report. Every cluster of a world must add the same scenery.
+    pub fn spawn_scenery(&mut self, state: &EntityState) -> Result<(), ClusterError> {
+        let state = EntityState {
+            cluster_id: ClusterId::SCENERY,
+            ..*state
+        };
+        self.sim.spawn(&state, BodyRole::Fixed)?;
+        Ok(())
+    }
+
+    /// Registers a shape too large to travel with every state (a convex hull, a compound
+    /// shape, a triangle mesh, a heightfield; see [`seam_sim::ShapeCatalog`]) and returns the
+    /// [`Shape`] naming it by content hash, for the body specs that use it. Every cluster of a
+    /// world registers the same shapes before bodies of them arrive: a state naming a shape
+    /// this cluster never registered is refused (counted as a rejected state), never
+    /// simulated as something else.
+    pub fn register_shape(&mut self, def: ShapeDef) -> Result<Shape, ClusterError> {
+        Ok(self.sim.register_shape(def)?)
+    }
+
+    /// Gives a body this cluster owns another role: dynamic (simulated), Fixed, or kinematic
+    /// (moved by its velocity: a platform, a door). The change travels with its next state,
+    /// so its proxies and any later owner move it the same way. A proxy's role is this
+    /// cluster's to choose, not game code's: setting one is [`SimError::NotOwned`].
+    pub fn set_role(&mut self, entity: EntityId, role: BodyRole) -> Result<(), ClusterError> {
+        let owner = self
+            .sim
+            .info(entity)
+            .ok_or(SimError::UnknownEntity(entity))?
+            .owner;
+        if owner == ClusterId::SCENERY {
+            return Err(SimError::Scenery(entity).into());
+        }
+        if owner != self.id() {
+            return Err(SimError::NotOwned { entity, owner }.into());
+        }
+        self.sim.set_role(entity, role)?;
+        Ok(())
+    }
+}
