@@ -7,7 +7,7 @@ use rapier3d::prelude::*;
 
 use crate::entity::{BodyRole, EntityInfo};
 use crate::error::SimError;
-use crate::shapes::ShapeCatalog;
+use crate::shapes::{ShapeCatalog, primitive};
 use crate::wire::{EntityId, EntityState, PhysicsOp, Shape};
 
 /// Bodies moved or added outside a step whose query bounds are not refreshed yet. Queries
@@ -35,21 +35,6 @@ fn collision_types() -> ActiveCollisionTypes {
     ActiveCollisionTypes::default()
         | ActiveCollisionTypes::KINEMATIC_KINEMATIC
         | ActiveCollisionTypes::KINEMATIC_FIXED
-}
-
-/// Rapier's shape for a primitive (`None` for a catalog shape).
-pub(crate) fn primitive(shape: &Shape) -> Option<SharedShape> {
-    Some(match *shape {
-        Shape::Ball { radius } => SharedShape::ball(radius),
-        Shape::Cuboid {
-            half_extents: [x, y, z],
-        } => SharedShape::cuboid(x, y, z),
-        Shape::Capsule {
-            half_height,
-            radius,
-        } => SharedShape::capsule_y(half_height, radius),
-        Shape::Catalog { .. } => return None,
-    })
 }
 
 /// The collider of a (validated) body spec's shape; a catalog shape must be registered.

@@ -47,6 +47,8 @@
 //! - `router` — [`WriteRouter`], the hook through which the proxy layer routes writes on
 //!   entities owned elsewhere, and [`LocalOnly`].
 //! - `body` — Rapier bodies and colliders behind entities.
+//! - [`shapes`] — [`ShapeCatalog`]: convex hulls, compounds, triangle meshes and heightfields
+//!   every cluster registers, named on the wire by content hash.
 //! - `contacts` — Rapier collision events as entity pairs with impulse and normal
 //!   ([`ContactEvent`]).
 //! - [`box_grid`] — boxes filed in a grid, for overlap queries without Rapier.

@@ -160,13 +160,49 @@ impl Part {
         if !pose_ok {
             return Err("a part's position must be finite and its rotation a unit quaternion");
         }
-        if !crate::validate::primitive_ok(&self.shape) {
+        if !primitive_ok(&self.shape) {
             return Err("a part is a ball, cuboid or capsule of positive finite sizes");
         }
-        let shape =
-            crate::body::primitive(&self.shape).ok_or("a part cannot be a catalog shape")?;
-        Ok((crate::body::pose_of(self.position, self.rotation), shape))
+        let shape = primitive(&self.shape).ok_or("a part cannot be a catalog shape")?;
+        let [x, y, z, w] = self.rotation;
+        let pose = Pose::from_parts(
+            Vector::from_array(self.position),
+            Rotation::from_xyzw(x, y, z, w).normalize(),
+        );
+        Ok((pose, shape))
     }
+}
+
+fn positive(x: f32) -> bool {
+    x.is_finite() && x > 0.0
+}
+
+/// Whether a primitive's sizes are positive and finite (a catalog shape is not a primitive).
+pub(crate) fn primitive_ok(shape: &Shape) -> bool {
+    match *shape {
+        Shape::Ball { radius } => positive(radius),
+        Shape::Cuboid { half_extents } => half_extents.iter().all(|&h| positive(h)),
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => positive(radius) && half_height.is_finite() && half_height >= 0.0,
+        Shape::Catalog { .. } => false,
+    }
+}
+
+/// Rapier's shape for a primitive (`None` for a catalog shape).
+pub(crate) fn primitive(shape: &Shape) -> Option<SharedShape> {
+    Some(match *shape {
+        Shape::Ball { radius } => SharedShape::ball(radius),
+        Shape::Cuboid {
+            half_extents: [x, y, z],
+        } => SharedShape::cuboid(x, y, z),
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => SharedShape::capsule_y(half_height, radius),
+        Shape::Catalog { .. } => return None,
+    })
 }
 
 /// One registered shape.

@@ -2,7 +2,7 @@
 
 use crate::entity::BodyRole;
 use crate::error::SimError;
-use crate::shapes::ShapeCatalog;
+use crate::shapes::{ShapeCatalog, primitive_ok};
 use crate::wire::{BodySpec, EntityId, EntityState, PhysicsOp, Shape};
 
 /// Largest quaternion norm error accepted (rotations are renormalised after the check).
@@ -44,19 +44,6 @@ pub(crate) fn op(op: &PhysicsOp, bound: f32) -> Result<(), SimError> {
 
 fn positive(x: f32) -> bool {
     x.is_finite() && x > 0.0
-}
-
-/// Whether a primitive's sizes are positive and finite (a catalog shape is not a primitive).
-pub(crate) fn primitive_ok(shape: &Shape) -> bool {
-    match *shape {
-        Shape::Ball { radius } => positive(radius),
-        Shape::Cuboid { half_extents } => half_extents.iter().all(|&h| positive(h)),
-        Shape::Capsule {
-            half_height,
-            radius,
-        } => positive(radius) && half_height.is_finite() && half_height >= 0.0,
-        Shape::Catalog { .. } => false,
-    }
 }
 
 /// Checks a body spec: sizes, density and material.
