@@ -7,8 +7,8 @@ use rapier3d::prelude::*;
 
 use crate::entity::{BodyRole, EntityInfo};
 use crate::error::SimError;
-use crate::shapes::{ShapeCatalog, primitive};
-use crate::wire::{EntityId, EntityState, PhysicsOp, Shape};
+use crate::shapes::ShapeCatalog;
+use crate::wire::{EntityId, EntityState, PhysicsOp};
 
 /// Bodies moved or added outside a step whose query bounds are not refreshed yet. Queries
 /// refresh them first ([`refresh_bounds`]); a step refreshes everything itself.
@@ -35,22 +35,6 @@ fn collision_types() -> ActiveCollisionTypes {
     ActiveCollisionTypes::default()
         | ActiveCollisionTypes::KINEMATIC_KINEMATIC
         | ActiveCollisionTypes::KINEMATIC_FIXED
-}
-
-/// The collider of a (validated) body spec's shape; a catalog shape must be registered.
-pub(crate) fn collider_for(
-    entity: EntityId,
-    shape: &Shape,
-    catalog: &ShapeCatalog,
-) -> Result<ColliderBuilder, SimError> {
-    let shape = match *shape {
-        Shape::Catalog { id, .. } => catalog
-            .rapier(id)
-            .cloned()
-            .ok_or(SimError::UnknownShapeOf { entity, shape: id })?,
-        _ => primitive(shape).ok_or(SimError::UnknownEntity(entity))?,
-    };
-    Ok(ColliderBuilder::new(shape))
 }
 
 pub(crate) fn pose_of(position: [f32; 3], rotation: [f32; 4]) -> Pose {
@@ -84,7 +68,13 @@ pub(crate) fn insert(
         Group::from_bits_retain(spec.groups.filter),
         InteractionTestMode::And,
     );
-    let collider = collider_for(state.id, &spec.shape, catalog)?
+    let shape = catalog
+        .resolve(&spec.shape)
+        .map_err(|shape| SimError::UnknownShapeOf {
+            entity: state.id,
+            shape,
+        })?;
+    let collider = ColliderBuilder::new(shape)
         .density(spec.density)
         .friction(spec.material.friction)
         .restitution(spec.material.restitution)

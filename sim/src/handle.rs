@@ -165,14 +165,13 @@ impl PhysicsHandle<'_> {
         rotation: [f32; 4],
     ) -> Vec<EntityId> {
         body::refresh_bounds(self.world, self.stale);
-        let Ok(collider) = body::collider_for(EntityId::from_u128(0), shape, self.catalog) else {
+        let Ok(shape) = self.catalog.resolve(shape) else {
             return Vec::new();
         };
-        let collider = collider.build();
         let pose = body::pose_of(position, rotation);
         let mut hits: Vec<EntityId> = self
             .world
-            .intersect_shape(pose, collider.shape(), QueryFilter::default())
+            .intersect_shape(pose, &*shape, QueryFilter::default())
             .map(|(_, c)| EntityId::from_u128(c.user_data))
             .collect();
         hits.sort_unstable();

@@ -178,7 +178,7 @@ fn positive(x: f32) -> bool {
 }
 
 /// Whether a primitive's sizes are positive and finite (a catalog shape is not a primitive).
-pub(crate) fn primitive_ok(shape: &Shape) -> bool {
+pub fn primitive_ok(shape: &Shape) -> bool {
     match *shape {
         Shape::Ball { radius } => positive(radius),
         Shape::Cuboid { half_extents } => half_extents.iter().all(|&h| positive(h)),
@@ -273,9 +273,13 @@ impl ShapeCatalog {
         self.shapes.is_empty()
     }
 
-    /// Rapier's shape for `id`.
-    pub(crate) fn rapier(&self, id: ShapeId) -> Option<&SharedShape> {
-        self.shapes.get(&id).map(|r| &r.shape)
+    /// Rapier's shape for `shape`: a primitive's own, or the registered one a catalog shape
+    /// names (or its id, if it is not registered here).
+    pub(crate) fn resolve(&self, shape: &Shape) -> Result<SharedShape, ShapeId> {
+        match *shape {
+            Shape::Catalog { id, .. } => self.shapes.get(&id).map(|r| r.shape.clone()).ok_or(id),
+            _ => primitive(shape).ok_or(ShapeId(0)),
+        }
     }
 }
 

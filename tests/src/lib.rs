@@ -304,6 +304,44 @@ pub fn ball_at(x: f32, owner: seam_sim::wire::ClusterId) -> seam_sim::wire::Enti
     .at([x, 0.0, 0.0])
 }
 
+/// Clusters in a row along x, one per `(x0, x1)` span (y and z ±100 m), each the neighbour of
+/// the next, on `url`: their configurations, each holding the whole world map, with zero
+/// gravity and Rapier's defaults otherwise (a test sets what it needs).
+pub fn row_configs(url: &str, spans: &[(f32, f32)]) -> Vec<seam_proxy::ClusterConfig> {
+    use seam_proxy::{ClusterConfig, Region, WorldCluster};
+    use seam_sim::wire::ClusterId;
+    let ids: Vec<ClusterId> = spans.iter().map(|_| ClusterId::random()).collect();
+    let adjacent = |i: usize| -> Vec<ClusterId> {
+        [i.checked_sub(1), Some(i + 1).filter(|&j| j < ids.len())]
+            .into_iter()
+            .flatten()
+            .map(|j| ids[j])
+            .collect()
+    };
+    let world: Vec<WorldCluster> = spans
+        .iter()
+        .enumerate()
+        .map(|(i, &(x0, x1))| WorldCluster {
+            id: ids[i],
+            region: Region {
+                min: [x0, -100.0, -100.0],
+                max: [x1, 100.0, 100.0],
+            },
+            neighbours: adjacent(i),
+        })
+        .collect();
+    world
+        .iter()
+        .map(|mapped| {
+            let mut config = ClusterConfig::new(mapped.id, mapped.neighbours.clone(), url);
+            config.gravity = [0.0; 3];
+            config.region = mapped.region;
+            config.world = world.clone();
+            config
+        })
+        .collect()
+}
+
 /// A private `redis-server` for a test that crashes and restarts it, or `None` (with a skip
 /// notice) where none can start, unless `SEAM_REQUIRE_REDIS=1`, under which the test fails.
 pub fn private_redis() -> Option<seam_bench::redis_server::RedisServer> {

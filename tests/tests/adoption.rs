@@ -5,47 +5,20 @@
 //! leaving is not taken for dead: nothing is adopted from it. Three clusters
 //! in a row along x, in one process on the in-process transport.
 
-use seam_proxy::{AuthorityMode, Cluster, ClusterConfig, NeighbourStatus, Region, WorldCluster};
+use seam_proxy::{AuthorityMode, Cluster, NeighbourStatus};
 use seam_sim::BodyRole;
-use seam_sim::wire::{ClusterId, EntityId, EntityState};
-use seam_tests::{HandClock, ball_at};
+use seam_sim::wire::{EntityId, EntityState};
+use seam_tests::{HandClock, ball_at, row_configs};
 
 const TIMEOUT_TICKS: u64 = 10;
 
-fn region(x0: f32, x1: f32) -> Region {
-    Region {
-        min: [x0, -100.0, -100.0],
-        max: [x1, 100.0, 100.0],
-    }
-}
-
 /// West [-30,-10], middle [-10,10], east [10,30]; middle neighbours both, they only it.
 fn row(url: &str) -> [Cluster; 3] {
-    let ids = [
-        ClusterId::random(),
-        ClusterId::random(),
-        ClusterId::random(),
-    ];
-    let regions = [
-        region(-30.0, -10.0),
-        region(-10.0, 10.0),
-        region(10.0, 30.0),
-    ];
-    let neighbours = [vec![ids[1]], vec![ids[0], ids[2]], vec![ids[1]]];
-    let world: Vec<WorldCluster> = (0..3)
-        .map(|i| WorldCluster {
-            id: ids[i],
-            region: regions[i],
-            neighbours: neighbours[i].clone(),
-        })
-        .collect();
+    let configs = row_configs(url, &[(-30.0, -10.0), (-10.0, 10.0), (10.0, 30.0)]);
     [0, 1, 2].map(|i| {
-        let mut config = ClusterConfig::new(ids[i], neighbours[i].clone(), url);
-        config.gravity = [0.0; 3];
-        config.region = regions[i];
+        let mut config = configs[i].clone();
         config.spread = 40.0;
         config.neighbour_timeout_ticks = TIMEOUT_TICKS;
-        config.world = world.clone();
         // Authority moves by the test's hand-off and by adoption only: the ball west hands
         // to middle lies in west's region, where a spatial policy would hand it straight back.
         config.authority = AuthorityMode::Scripted;

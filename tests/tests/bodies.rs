@@ -14,12 +14,12 @@
 
 use std::time::Duration;
 
-use seam_proxy::{AuthorityMode, Cluster, ClusterConfig, Region, WorldCluster, lockstep_round};
+use seam_proxy::{AuthorityMode, Cluster, lockstep_round};
 use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Motion, Shape};
 use seam_sim::{
     BodyRole, ClusterSim, ContactEvent, LocalOnly, Part, ShapeCatalog, ShapeDef, SimConfig,
 };
-use seam_tests::TestContext;
+use seam_tests::{TestContext, row_configs};
 
 seam_tests::backend_tests!(
     [shm: Shm, redis: Redis],
@@ -33,31 +33,13 @@ seam_tests::backend_tests!(
 
 const TIMEOUT: Duration = Duration::from_secs(10);
 
-fn region(x0: f32, x1: f32) -> Region {
-    Region {
-        min: [x0, -50.0, -50.0],
-        max: [x1, 50.0, 50.0],
-    }
-}
-
 /// West ([-30, 0]) and east ([0, 30]) on `url`, each on the world map, spread 4 m.
 fn pair(url: &str, gravity: [f32; 3], authority: AuthorityMode) -> Vec<Cluster> {
-    let ids = [ClusterId::random(), ClusterId::random()];
-    let regions = [region(-30.0, 0.0), region(0.0, 30.0)];
-    let world: Vec<WorldCluster> = (0..2)
-        .map(|i| WorldCluster {
-            id: ids[i],
-            region: regions[i],
-            neighbours: vec![ids[1 - i]],
-        })
-        .collect();
-    (0..2)
-        .map(|i| {
-            let mut config = ClusterConfig::new(ids[i], vec![ids[1 - i]], url);
+    row_configs(url, &[(-30.0, 0.0), (0.0, 30.0)])
+        .into_iter()
+        .map(|mut config| {
             config.gravity = gravity;
-            config.region = regions[i];
             config.spread = 4.0;
-            config.world = world.clone();
             config.authority = authority;
             Cluster::new(config).expect("cluster")
         })

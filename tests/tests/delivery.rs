@@ -5,13 +5,13 @@
 
 use std::time::Duration;
 
-use seam_proxy::{AuthorityMode, Cluster, ClusterConfig, Region, WorldCluster, physics_events};
+use seam_proxy::{AuthorityMode, Cluster, ClusterConfig, physics_events};
 use seam_sim::BodyRole;
 use seam_sim::wire::{
     self, ClusterId, ContactReport, EntityId, EntityState, OpAck, PhysicsEventsFrame, PhysicsOp,
     ReplicationFrame, RoutedOp, Stage,
 };
-use seam_tests::{HandClock, TestContext, ball_at};
+use seam_tests::{HandClock, TestContext, ball_at, row_configs};
 
 seam_tests::backend_tests!(
     [shm: Shm, local: Local, redis: Redis],
@@ -437,32 +437,17 @@ fn dead_owner(max_op_age_ticks: u64) -> (Cluster, EntityState) {
         "local?prefix=seam_delivery_dead_{}_{max_op_age_ticks}_",
         std::process::id()
     );
-    let ids = [ClusterId::random(), ClusterId::random()];
-    let regions = [(-30.0, 0.0), (0.0, 30.0)].map(|(x0, x1)| Region {
-        min: [x0, -100.0, -100.0],
-        max: [x1, 100.0, 100.0],
-    });
-    let world: Vec<WorldCluster> = (0..2)
-        .map(|i| WorldCluster {
-            id: ids[i],
-            region: regions[i],
-            neighbours: vec![ids[1 - i]],
-        })
-        .collect();
-    let mut clusters: Vec<Cluster> = (0..2)
-        .map(|i| {
-            let mut config = ClusterConfig::new(ids[i], vec![ids[1 - i]], &url);
-            config.gravity = [0.0; 3];
-            config.region = regions[i];
+    let mut clusters: Vec<Cluster> = row_configs(&url, &[(-30.0, 0.0), (0.0, 30.0)])
+        .into_iter()
+        .map(|mut config| {
             config.spread = 40.0;
             config.neighbour_timeout_ticks = 10;
             config.max_op_age_ticks = max_op_age_ticks;
-            config.world = world.clone();
             config.authority = AuthorityMode::Scripted;
             Cluster::new(config).expect("cluster")
         })
         .collect();
-    let ball = ball_at(1.0, ids[1]);
+    let ball = ball_at(1.0, clusters[1].id());
     let mass = ball_mass(&ball);
     clusters[1]
         .spawn_owned(&ball, BodyRole::Dynamic)

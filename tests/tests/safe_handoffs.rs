@@ -9,12 +9,10 @@
 //! - between ticks, every body is owned by exactly one cluster ([`Cluster::owns`]), in the
 //!   tick of a hand-off too, lock-step and free-running.
 
-use seam_proxy::{
-    AuthorityMode, Cluster, ClusterConfig, ClusterError, Region, WorldCluster, lockstep_round,
-};
+use seam_proxy::{AuthorityMode, Cluster, ClusterConfig, ClusterError, lockstep_round};
 use seam_sim::BodyRole;
 use seam_sim::wire::{ClusterId, EntityState};
-use seam_tests::{TestContext, ball_at};
+use seam_tests::{TestContext, ball_at, row_configs};
 
 seam_tests::backend_tests!(
     [shm: Shm, redis: Redis],
@@ -26,48 +24,20 @@ seam_tests::backend_tests!(
     ]
 );
 
-fn region(x0: f32, x1: f32) -> Region {
-    Region {
-        min: [x0, -100.0, -100.0],
-        max: [x1, 100.0, 100.0],
-    }
-}
-
 /// Three clusters in a row along x (west [-30,-10], middle [-10,10], east [10,30]), zero
-/// gravity, the default authority policy, on `url`; `neighbours` gives each one's list by index (the world
-/// map says middle neighbours both). Returns the configurations.
+/// gravity, the default authority policy, on `url`; `neighbours` gives each one's list by index
+/// (the world map says middle neighbours both). Returns the configurations.
 fn row(
     url: &str,
     neighbours: impl Fn(usize, &[ClusterId; 3]) -> Vec<ClusterId>,
 ) -> Vec<ClusterConfig> {
-    let ids = [
-        ClusterId::random(),
-        ClusterId::random(),
-        ClusterId::random(),
-    ];
-    let regions = [
-        region(-30.0, -10.0),
-        region(-10.0, 10.0),
-        region(10.0, 30.0),
-    ];
-    let mapped = [vec![ids[1]], vec![ids[0], ids[2]], vec![ids[1]]];
-    let world: Vec<WorldCluster> = (0..3)
-        .map(|i| WorldCluster {
-            id: ids[i],
-            region: regions[i],
-            neighbours: mapped[i].clone(),
-        })
-        .collect();
-    (0..3)
-        .map(|i| {
-            let mut config = ClusterConfig::new(ids[i], neighbours(i, &ids), url);
-            config.gravity = [0.0; 3];
-            config.region = regions[i];
-            config.spread = 4.0;
-            config.world = world.clone();
-            config
-        })
-        .collect()
+    let mut configs = row_configs(url, &[(-30.0, -10.0), (-10.0, 10.0), (10.0, 30.0)]);
+    let ids = [0, 1, 2].map(|i| configs[i].cluster_id);
+    for (i, config) in configs.iter_mut().enumerate() {
+        config.neighbours = neighbours(i, &ids);
+        config.spread = 4.0;
+    }
+    configs
 }
 
 /// The neighbours the world map gives.

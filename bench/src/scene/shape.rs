@@ -165,17 +165,8 @@ impl SceneShape {
     /// Why a body cannot have it, if it cannot.
     pub(super) fn problem(&self) -> Option<String> {
         if let Some(shape) = self.primitive() {
-            let positive = |x: f32| x.is_finite() && x > 0.0;
-            let sizes_ok = match shape {
-                Shape::Ball { radius } => positive(radius),
-                Shape::Cuboid { half_extents } => half_extents.iter().all(|&h| positive(h)),
-                Shape::Capsule {
-                    half_height,
-                    radius,
-                } => positive(radius) && half_height.is_finite() && half_height >= 0.0,
-                Shape::Catalog { .. } => true,
-            };
-            return (!sizes_ok).then(|| "sizes must be positive".to_owned());
+            return (!seam_sim::shapes::primitive_ok(&shape))
+                .then(|| "sizes must be positive".to_owned());
         }
         let Some(def) = self.catalog_def() else {
             return Some("a compound's parts are balls, cuboids and capsules".into());
