@@ -36,20 +36,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         min: [min_x, -50.0, -50.0],
         max: [max_x, 50.0, 50.0],
     };
-    let world = world_map(&[(west, half(-50.0, 0.0), 2.0), (east, half(0.0, 50.0), 2.0)]);
-    let mine = world
-        .iter()
-        .find(|c| c.id == if me == "west" { west } else { east })
-        .expect("on the map");
+    // Each cluster's region and spread, given once: the config takes its own from here.
+    let world = [(west, half(-50.0, 0.0), 2.0), (east, half(0.0, 50.0), 2.0)];
+    let mine = if me == "west" { west } else { east };
 
     // Shared memory under this run's own prefix; "redis://host:6379" would do the same across
     // hosts, with nothing else changed.
     let url = format!("shm?prefix={run}_");
-    let mut config = ClusterConfig::new(mine.id, mine.neighbours.clone(), &url);
+    let mut config = ClusterConfig::in_world(mine, &world, &url)?;
     config.gravity = [0.0; 3];
-    config.region = mine.region;
-    config.spread = 2.0;
-    config.world = world.clone();
     let mut cluster = Cluster::new(config)?;
 
     let ball = EntityId::named(&run, "ball");
@@ -65,7 +60,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // Nothing moves until the other pod is there: tick idle (publishing, so it hears of us)
     // until its first frame has come, for at most 10 s.
-    let other = mine.neighbours[0];
+    let other = cluster.config().neighbours[0];
     let stop = AtomicBool::new(false); // a signal handler would set it to stop early
     let mut waiting = Schedule::new(60.0, 600)?;
     while cluster.neighbour_status(other) != Some(NeighbourStatus::Alive) {

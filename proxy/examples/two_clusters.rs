@@ -19,34 +19,20 @@ fn main() -> Result<(), ClusterError> {
         ClusterId::named(&run, "west"),
         ClusterId::named(&run, "east"),
     );
-    // Regions and neighbours: the world map every cluster is given.
-    let world = vec![
-        WorldCluster {
-            id: west,
-            region: Region {
-                min: [-50.0, -50.0, -50.0],
-                max: [0.0, 50.0, 50.0],
-            },
-            neighbours: vec![east],
-        },
-        WorldCluster {
-            id: east,
-            region: Region {
-                min: [0.0, -50.0, -50.0],
-                max: [50.0, 50.0, 50.0],
-            },
-            neighbours: vec![west],
-        },
-    ];
+    // Each cluster's region and spread (how far past it neighbours' bodies are modelled),
+    // given once: each config takes its own, its neighbours and the world map from here.
+    let half = |min_x: f32, max_x: f32| Region {
+        min: [min_x, -50.0, -50.0],
+        max: [max_x, 50.0, 50.0],
+    };
+    let world = [(west, half(-50.0, 0.0), 2.0), (east, half(0.0, 50.0), 2.0)];
     // The in-process transport; "shm" for pods in separate processes, "redis://..." across
     // hosts — nothing else changes.
     let url = format!("local?prefix={run}_");
     let mut clusters = Vec::new();
-    for me in &world {
-        let mut config = ClusterConfig::new(me.id, me.neighbours.clone(), &url);
+    for (me, ..) in world {
+        let mut config = ClusterConfig::in_world(me, &world, &url)?;
         config.gravity = [0.0; 3];
-        config.region = me.region;
-        config.world = world.clone();
         clusters.push(Cluster::new(config)?);
     }
 

@@ -278,6 +278,35 @@ mod tests {
     }
 
     #[test]
+    fn a_config_in_a_world_takes_its_region_spread_and_neighbours_from_it_once() {
+        let (a, b, c) = (
+            ClusterId::random(),
+            ClusterId::random(),
+            ClusterId::random(),
+        );
+        let slab = |x0: f32, x1: f32| Region {
+            min: [x0, -10.0, -10.0],
+            max: [x1, 10.0, 10.0],
+        };
+        // c is 5 m past b: within b's 3 m spread plus c's 2 m, out of a's reach.
+        let world = [
+            (a, slab(-10.0, 0.0), 1.0),
+            (b, slab(0.0, 10.0), 3.0),
+            (c, slab(15.0, 25.0), 2.0),
+        ];
+        let config = ClusterConfig::in_world(b, &world, "local").expect("on the map");
+        assert_eq!((config.region, config.spread), (slab(0.0, 10.0), 3.0));
+        assert_eq!(config.neighbours, vec![a, c]);
+        assert_eq!(config.world.len(), 3);
+        assert_eq!(check(&config), Ok(()));
+        let stranger = ClusterConfig::in_world(ClusterId::random(), &world, "local");
+        assert_eq!(
+            stranger.map(|_| ()).map_err(|e| e.field),
+            Err("world".to_owned())
+        );
+    }
+
+    #[test]
     fn the_world_map_lists_this_cluster_with_its_region_and_its_neighbours() {
         let region = Region {
             min: [0.0; 3],

@@ -175,6 +175,33 @@ impl ClusterConfig {
         }
     }
 
+    /// Cluster `cluster_id` of the world `clusters` (id, region and spread of each, as
+    /// [`world_map`](crate::world_map) takes them): its region, spread and neighbours from its
+    /// own entry and the whole world map, each given once; otherwise as [`ClusterConfig::new`].
+    /// A `cluster_id` not among `clusters` is refused (field `world`).
+    pub fn in_world(
+        cluster_id: ClusterId,
+        clusters: &[(ClusterId, Region, f32)],
+        transport: &str,
+    ) -> Result<Self, crate::ConfigError> {
+        let world = crate::world_map(clusters);
+        let (Some(&(_, region, spread)), Some(me)) = (
+            clusters.iter().find(|(id, ..)| *id == cluster_id),
+            world.iter().find(|entry| entry.id == cluster_id),
+        ) else {
+            return Err(crate::ConfigError {
+                field: "world".into(),
+                value: format!("{:?}", clusters.iter().map(|c| c.0).collect::<Vec<_>>()),
+                rule: "the world map must list this cluster (cluster_id)",
+            });
+        };
+        let mut config = Self::new(cluster_id, me.neighbours.clone(), transport);
+        config.region = region;
+        config.spread = spread;
+        config.world = world;
+        Ok(config)
+    }
+
     /// How long a replicated pose stands before the next frame can replace it, seconds: the
     /// sweep an extent is grown by (see `crate::replication::interest`).
     pub fn sweep_s(&self) -> f32 {
