@@ -8,7 +8,9 @@
 
 use std::time::{Duration, Instant};
 
-use seam_proxy::{Cluster, ClusterConfig, ClusterStats, physics_events, replication};
+use seam_proxy::{
+    Cluster, ClusterConfig, ClusterEvent, ClusterStats, FrameRefusal, physics_events, replication,
+};
 use seam_sim::BodyRole;
 use seam_sim::wire::{
     self, ClusterId, EntityId, EntityState, PhysicsEventsFrame, PhysicsOp, ReplicationFrame,
@@ -119,6 +121,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
     );
     config.gravity = [0.0; 3];
     let mut cluster = Cluster::new(config).expect("cluster");
+    cluster.keep_events();
     let mine: Vec<EntityState> = (0..5).map(|i| ball_at(i as f32 * 3.0, me)).collect();
     for state in &mine {
         cluster
@@ -385,6 +388,19 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
         expected.implausible > 0 && expected.states_rejected > 0 && expected.replayed > 0,
         "every kind injected: {expected:?}"
     );
+    // A refusal names the sender wherever the frame could be read (both kinds of wrong
+    // sender here: a frame claiming this cluster on the neighbour's channel, a stranger's).
+    let mut named = |reason: FrameRefusal| {
+        cluster
+            .take_events()
+            .iter()
+            .filter(|e| {
+                matches!(e.event, ClusterEvent::FrameRefused { reason: r, from }
+                    if r == reason && from.is_some())
+            })
+            .count() as u64
+    };
+    assert_eq!(named(FrameRefusal::WrongSender), s.frames_wrong_sender);
     assert_eq!(s.neighbours_lost, 0, "the neighbour stayed alive: {s:?}");
     assert_eq!(s.ops_applied, 0, "no op applied: {s:?}");
     assert_eq!(s.proxies_spawned, 0, "no bad state became a proxy: {s:?}");

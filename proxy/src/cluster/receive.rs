@@ -5,7 +5,7 @@ use super::Cluster;
 use crate::clock::monotonic_ns;
 use crate::error::ClusterError;
 use crate::events::{ClusterEvent, FrameRefusal};
-use crate::inbox::{Frame, FrameKind, decode_frame};
+use crate::inbox::{Frame, FrameKind, Refused, decode_frame};
 
 impl Cluster {
     /// Moves everything the transport holds into the inbox.
@@ -21,36 +21,56 @@ impl Cluster {
 
     /// Takes one received frame in: a malformed, implausible or replayed frame is counted and
     /// dropped; the others go to the inbox for the tick that uses them.
-    pub(super) fn take_in(&mut self, frame: Result<Frame, FrameRefusal>, received_ns: u64) {
+    pub(super) fn take_in(&mut self, frame: Result<Frame, Refused>, received_ns: u64) {
         match self.file(frame, received_ns) {
             Ok((from, tick, kind)) => {
                 self.events.emit(ClusterEvent::FrameAccepted { from });
                 self.heard(from, tick, kind);
             }
-            Err(reason) => self.events.emit(ClusterEvent::FrameRefused { reason }),
+            Err((reason, from)) => self.refused(reason, from),
+        }
+    }
+
+    /// Counts a refused frame, and logs it at the 1st, 10th, 100th … refusal for its reason,
+    /// naming the sender where the frame names one (a pod still running under a cluster's id
+    /// elsewhere, a neighbour from another run, one whose clock runs ahead).
+    fn refused(&mut self, reason: FrameRefusal, from: Option<seam_sim::wire::ClusterId>) {
+        self.events
+            .emit(ClusterEvent::FrameRefused { reason, from });
+        let count = self.stats().frames_refused_for(reason);
+        if 10u64.pow(count.max(1).ilog10()) == count {
+            let sender = from.map_or_else(|| "unreadable".to_owned(), |id| id.to_string());
+            tracing::warn!(
+                cluster = %self.config.cluster_id,
+                sender,
+                ?reason,
+                refused_so_far = count,
+                "frame refused"
+            );
         }
     }
 
     /// Files a frame in the inbox; returns its sender, tick and kind, or why it was refused.
     fn file(
         &mut self,
-        frame: Result<Frame, FrameRefusal>,
+        frame: Result<Frame, Refused>,
         received_ns: u64,
-    ) -> Result<(seam_sim::wire::ClusterId, u64, FrameKind), FrameRefusal> {
+    ) -> Result<(seam_sim::wire::ClusterId, u64, FrameKind), Refused> {
         let frame = frame?;
         let (from, tick, kind) = (frame.from(), frame.tick(), frame.kind());
+        let refuse = |reason| Err((reason, Some(from)));
         let mine = self.sim.tick();
         if self
             .neighbours
             .implausible(&self.config, from, tick, mine, self.host_ns)
         {
-            return Err(FrameRefusal::Implausible);
+            return refuse(FrameRefusal::Implausible);
         }
         if self.neighbours.replayed(from, tick, kind) {
-            return Err(FrameRefusal::Replayed);
+            return refuse(FrameRefusal::Replayed);
         }
         if !self.config.neighbours.contains(&from) {
-            return Err(FrameRefusal::WrongSender);
+            return refuse(FrameRefusal::WrongSender);
         }
         let kept = match frame {
             Frame::Replication(mut frame) => {
@@ -68,7 +88,7 @@ impl Cluster {
         if kept {
             Ok((from, tick, kind))
         } else {
-            Err(FrameRefusal::Replayed)
+            refuse(FrameRefusal::Replayed)
         }
     }
 

@@ -87,6 +87,8 @@ pub enum ClusterEvent {
     FrameRefused {
         /// Why.
         reason: FrameRefusal,
+        /// The sender the frame names, where it could be read.
+        from: Option<ClusterId>,
     },
     /// A replicated state was ignored: invalid, beyond the bound, or about an entity its
     /// sender does not own.

@@ -228,21 +228,29 @@ pub struct ClusterStats {
 }
 
 impl ClusterStats {
+    /// The frames refused for `reason` so far.
+    pub fn frames_refused_for(&self, reason: FrameRefusal) -> u64 {
+        let mut copy = *self;
+        *copy.refused_mut(reason)
+    }
+
+    fn refused_mut(&mut self, reason: FrameRefusal) -> &mut u64 {
+        match reason {
+            FrameRefusal::Malformed => &mut self.frames_malformed,
+            FrameRefusal::WrongVersion => &mut self.frames_wrong_version,
+            FrameRefusal::WrongSender => &mut self.frames_wrong_sender,
+            FrameRefusal::Replayed => &mut self.frames_replayed,
+            FrameRefusal::Implausible => &mut self.frames_implausible,
+        }
+    }
+
     /// Counts one event.
     pub(crate) fn count(&mut self, event: &ClusterEvent) {
         use ClusterEvent as E;
         match *event {
             E::Ticked => self.ticks += 1,
             E::FrameAccepted { .. } => self.frames_accepted += 1,
-            E::FrameRefused { reason } => {
-                *match reason {
-                    FrameRefusal::Malformed => &mut self.frames_malformed,
-                    FrameRefusal::WrongVersion => &mut self.frames_wrong_version,
-                    FrameRefusal::WrongSender => &mut self.frames_wrong_sender,
-                    FrameRefusal::Replayed => &mut self.frames_replayed,
-                    FrameRefusal::Implausible => &mut self.frames_implausible,
-                } += 1
-            }
+            E::FrameRefused { reason, .. } => *self.refused_mut(reason) += 1,
             E::StateRejected { .. } => self.states_rejected += 1,
             E::KeyframeMissed { .. } => self.keyframes_missed += 1,
             E::ReplicationPublished {

@@ -64,21 +64,25 @@ fn refusal(error: wire::WireError) -> FrameRefusal {
     }
 }
 
+/// Why a received message is no frame to take, and the sender it names, where it names one.
+pub(crate) type Refused = (FrameRefusal, Option<ClusterId>);
+
 /// Decodes a message received on `channel`. A replication frame whose sender is not the
-/// cluster its channel names, or a message on a channel that is not one of seam's, is from the
-/// wrong sender.
-pub(crate) fn decode_frame(channel: &str, payload: &[u8]) -> Result<Frame, FrameRefusal> {
-    match channels::parse(channel).ok_or(FrameRefusal::WrongSender)? {
+/// cluster its channel names (refused naming the sender it claims), or a message on a channel
+/// that is not one of seam's, is from the wrong sender.
+pub(crate) fn decode_frame(channel: &str, payload: &[u8]) -> Result<Frame, Refused> {
+    let unnamed = |reason| (reason, None);
+    match channels::parse(channel).ok_or(unnamed(FrameRefusal::WrongSender))? {
         Channel::Replication(from) => {
             // Checked in place; its states are read when the tick uses it.
-            let frame = HeldReplication::new(payload).map_err(refusal)?;
+            let frame = HeldReplication::new(payload).map_err(|e| unnamed(refusal(e)))?;
             if frame.from != from {
-                return Err(FrameRefusal::WrongSender);
+                return Err((FrameRefusal::WrongSender, Some(frame.from)));
             }
             Ok(Frame::Replication(frame))
         }
         Channel::PhysicsEvents(_) => wire::decode::<PhysicsEventsFrame>(payload)
             .map(Frame::Events)
-            .map_err(refusal),
+            .map_err(|e| unnamed(refusal(e))),
     }
 }

@@ -20,7 +20,7 @@ use seam_sim::wire::{ClusterId, PhysicsEventsFrame, Stage};
 mod decode;
 mod held;
 
-pub(crate) use decode::{Frame, FrameKind, decode_frame};
+pub(crate) use decode::{Frame, FrameKind, Refused, decode_frame};
 pub(crate) use held::HeldReplication;
 
 /// Frames waiting to be used.
