@@ -102,6 +102,15 @@ fn check(c: &ClusterConfig) -> Result<(), ConfigError> {
         ));
     }
     world(c)?;
+    for (id, name) in &c.names {
+        if name.trim().is_empty() || name.len() > 64 || name.chars().any(char::is_control) {
+            return Err(refuse(
+                format!("names[{id}]"),
+                name,
+                "a cluster's name is 1 to 64 printable characters",
+            ));
+        }
+    }
     if !(c.neighbour_wait_ticks.is_finite() && c.neighbour_wait_ticks >= 0.0) {
         return Err(refuse(
             "neighbour_wait_ticks",
@@ -275,6 +284,26 @@ mod tests {
             refused(|c| c.neighbours.push(c.neighbours[0])),
             field("neighbours[1]")
         );
+    }
+
+    #[test]
+    fn clusters_are_named_where_named_and_names_are_printable() {
+        let mut c = config();
+        let (me, stranger) = (c.cluster_id, ClusterId::random());
+        c.names.insert(me, "west".into());
+        assert_eq!(c.label(me), format!("west ({me})"));
+        assert_eq!(c.label(stranger), stranger.to_string());
+        assert_eq!(check(&c), Ok(()));
+        for bad in ["", " ", "a\nb"] {
+            assert_eq!(
+                refused(|c| {
+                    c.names.insert(me, bad.into());
+                })
+                .map(|f| f.starts_with("names[")),
+                Some(true),
+                "{bad:?}"
+            );
+        }
     }
 
     #[test]

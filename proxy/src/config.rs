@@ -137,6 +137,9 @@ pub struct ClusterConfig {
     /// `ClusterStats::steps_missed` and `exchanges_missed`), and what it sends is used when it
     /// comes. 0: never wait.
     pub neighbour_wait_ticks: f32,
+    /// Names of clusters (this one, its neighbours, any on the world map) for logs and
+    /// reports; a cluster without one is shown by its id. `seam run` names the scene's.
+    pub names: std::collections::BTreeMap<ClusterId, String>,
 }
 
 /// The default [`ClusterConfig::keyframe_ticks`]: half a second at 60 Hz.
@@ -172,6 +175,7 @@ impl ClusterConfig {
             keyframe_ticks: DEFAULT_KEYFRAME_TICKS,
             exchange: true,
             neighbour_wait_ticks: 0.25,
+            names: std::collections::BTreeMap::new(),
         }
     }
 
@@ -200,6 +204,14 @@ impl ClusterConfig {
         config.spread = spread;
         config.world = world;
         Ok(config)
+    }
+
+    /// How logs and reports name cluster `id`: `name (id)` where `names` has it, else the id.
+    pub fn label(&self, id: ClusterId) -> String {
+        match self.names.get(&id) {
+            Some(name) => format!("{name} ({id})"),
+            None => id.to_string(),
+        }
     }
 
     /// How long a replicated pose stands before the next frame can replace it, seconds: the

@@ -344,7 +344,8 @@ impl Pod {
             .map(|c| (c.name.clone(), ids.cluster(&c.name)))
             .collect();
         let world = scene_world_map(scene, &clusters);
-        let cluster_names = clusters.iter().map(|(n, id)| (*id, n.clone())).collect();
+        let cluster_names: HashMap<ClusterId, String> =
+            clusters.iter().map(|(n, id)| (*id, n.clone())).collect();
         let (name, plays, cluster_id, neighbours, region, spread) = match part {
             Part::Reference => (
                 "reference".to_owned(),
@@ -393,6 +394,10 @@ impl Pod {
         }
         config.region = region;
         config.spread = spread;
+        config.names = cluster_names
+            .iter()
+            .map(|(id, n)| (*id, n.clone()))
+            .collect();
         apply_settings(&mut config, scene, settings);
         let mut cluster = Cluster::new(config)?;
         // A pod reads its cluster's events after every tick: op timings, hand-offs, ledgers.

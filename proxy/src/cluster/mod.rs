@@ -144,7 +144,7 @@ impl Cluster {
             max_op_magnitude: config.max_magnitude,
         });
         tracing::debug!(
-            cluster = %config.cluster_id,
+            cluster = %config.label(config.cluster_id),
             neighbours = config.neighbours.len(),
             transport = %seam_transport::redact_url(&config.transport),
             "cluster open"

@@ -39,9 +39,9 @@ impl Cluster {
             .emit(ClusterEvent::FrameRefused { reason, from });
         let count = self.stats().frames_refused_for(reason);
         if 10u64.pow(count.max(1).ilog10()) == count {
-            let sender = from.map_or_else(|| "unreadable".to_owned(), |id| id.to_string());
+            let sender = from.map_or_else(|| "unreadable".to_owned(), |id| self.config.label(id));
             tracing::warn!(
-                cluster = %self.config.cluster_id,
+                cluster = %self.config.label(self.config.cluster_id),
                 sender,
                 ?reason,
                 refused_so_far = count,
@@ -108,8 +108,8 @@ impl Cluster {
         self.custody
             .return_to(neighbour, &self.sim, &mut self.handoffs, &mut self.events);
         tracing::info!(
-            cluster = %self.config.cluster_id,
-            %neighbour,
+            cluster = %self.config.label(self.config.cluster_id),
+            neighbour = %self.config.label(neighbour),
             returned = self.stats().entities_returned - returned,
             "neighbour back: what was adopted from it is handed back"
         );

@@ -207,8 +207,8 @@ impl Cluster {
                 &mut self.events,
             );
             tracing::warn!(
-                cluster = %self.config.cluster_id,
-                %neighbour,
+                cluster = %self.config.label(self.config.cluster_id),
+                neighbour = %self.config.label(neighbour),
                 silent_ticks = self.config.neighbour_timeout_ticks,
                 adopted = self.stats().entities_adopted - adopted,
                 "neighbour taken for dead: its proxies despawned, its entities adopted"
@@ -260,8 +260,8 @@ impl Cluster {
                 }
             }
             tracing::info!(
-                cluster = %me,
-                %neighbour,
+                cluster = %self.config.label(me),
+                neighbour = %self.config.label(neighbour),
                 "neighbour left: not waited for, nothing adopted from it"
             );
         }

@@ -72,9 +72,9 @@ pub(crate) fn return_overdue(
             });
         }
         tracing::warn!(
-            cluster = %me,
+            cluster = %config.label(me),
             entity = %handed.id,
-            neighbour = %to,
+            neighbour = %config.label(to),
             handed_at = handed.tick,
             taken_back = back,
             "hand-off not taken within neighbour_timeout_ticks: it comes back"

@@ -66,10 +66,10 @@ impl Reconcile<'_> {
             if self.state(&state, from, known, &mut listed).is_err() {
                 self.rejected(from);
                 tracing::debug!(
-                    cluster = %self.config.cluster_id,
-                    %from,
+                    cluster = %self.config.label(self.config.cluster_id),
+                    from = %self.config.label(from),
                     entity = %state.id,
-                    claimed_owner = %state.cluster_id,
+                    claimed_owner = %self.config.label(state.cluster_id),
                     known = ?known,
                     epoch = state.epoch,
                     "state rejected"
@@ -213,9 +213,9 @@ impl Reconcile<'_> {
         });
         self.yielded.push(state.id);
         tracing::warn!(
-            cluster = %self.config.cluster_id,
+            cluster = %self.config.label(self.config.cluster_id),
             entity = %state.id,
-            to = %from,
+            to = %self.config.label(from),
             "entity claimed back by the cluster that handed it here: this copy is its proxy now"
         );
         listed.insert(state.id, ());

@@ -50,8 +50,8 @@ impl Courier<RoutedOp> for Owner<'_> {
             Resend::Resent(to) => ClusterEvent::OpResent { name, to },
             Resend::GivenUp => {
                 tracing::warn!(
-                    cluster = %self.config.cluster_id,
-                    issuer = %name.issuer,
+                    cluster = %self.config.label(self.config.cluster_id),
+                    issuer = %self.config.label(name.issuer),
                     seq = name.seq,
                     "routed op given up: its owner never answered it (not running, or gone)"
                 );
