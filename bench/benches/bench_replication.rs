@@ -54,6 +54,7 @@ fn events(batch: usize) -> PhysicsEventsFrame {
         impulses: Vec::new(),
         own_writes: Vec::new(),
         leaving: false,
+        unmodelled: Vec::new(),
     }
 }
 

@@ -132,6 +132,7 @@ fn events() -> PhysicsEventsFrame {
         }],
         own_writes: Vec::new(),
         leaving: true,
+        unmodelled: Vec::new(),
     }
 }
 

@@ -10,11 +10,12 @@
 //! - a sensor owned by one cluster reports a ball of the other entering and leaving it, once
 //!   each on each side, and pushes nothing;
 //! - a body whose catalog shape the neighbour never registered is refused there (counted),
-//!   never simulated as something else, and stays owned by exactly one cluster at every tick.
+//!   never simulated as something else; the neighbour says so, and the owner hands it nowhere
+//!   near it: owned by its owner at every tick.
 
 use std::time::Duration;
 
-use seam_proxy::{AuthorityMode, Cluster, lockstep_round};
+use seam_proxy::{AuthorityMode, Cluster, ClusterError, lockstep_round};
 use seam_sim::wire::{BodySpec, ClusterId, EntityId, EntityState, Motion, Shape};
 use seam_sim::{
     BodyRole, ClusterSim, ContactEvent, LocalOnly, Part, ShapeCatalog, ShapeDef, SimConfig,
@@ -401,23 +402,27 @@ fn a_shape_the_neighbour_never_registered_is_refused_and_never_lost(ctx: &TestCo
     clusters[0]
         .spawn_owned(&state, BodyRole::Dynamic)
         .expect("west's rock");
-    // Never two owners. East refuses the hand-off's state, so until the hand-off comes back
-    // (unanswered for `neighbour_timeout_ticks`, 60) nobody owns the rock: the gap that
-    // handing only to a cluster already holding a proxy will close (see the closing note of
-    // issue 37), bounded here. The policy does not hand it to east again.
-    let mut nobody = 0;
-    for _ in 0..240 {
+    // East refuses the rock's states as it comes into view and tells west, which then
+    // hands it nowhere near east: one owner, west, at every tick.
+    for tick in 0..240 {
         lockstep_round(&mut clusters, TIMEOUT, |_, _, _| {}).expect("round");
-        let owners = clusters.iter().filter(|c| c.owns(state.id)).count();
-        assert!(owners <= 1, "never two owners");
-        nobody += usize::from(owners == 0);
+        assert_eq!(
+            owner(&clusters, state.id),
+            0,
+            "west owns the rock at tick {tick}"
+        );
     }
-    assert!(nobody <= 62, "owned by nobody for {nobody} ticks");
+    let west = clusters[0].stats();
     assert_eq!(
-        clusters[0].stats().handoffs_returned,
-        1,
-        "{}",
-        clusters[0].stats()
+        (west.handoffs_out, west.handoffs_returned),
+        (0, 0),
+        "never handed to east: {west}"
+    );
+    let east = clusters[1].id();
+    let refused = clusters[0].transfer_authority(state.id, east);
+    assert!(
+        matches!(&refused, Err(ClusterError::Transfer { reason, .. }) if reason.contains("cannot model")),
+        "game code's hand-off to east is refused with the reason: {refused:?}"
     );
     assert!(
         !clusters[1].sim().contains(state.id),
@@ -428,7 +433,6 @@ fn a_shape_the_neighbour_never_registered_is_refused_and_never_lost(ctx: &TestCo
         "east counted the states it refused: {:?}",
         clusters[1].stats()
     );
-    assert_eq!(owner(&clusters, state.id), 0, "west still owns the rock");
     let x = clusters[0].sim().state(state.id).expect("west's").position[0];
     assert!(x > 10.0, "and it flew on: x = {x}");
 }

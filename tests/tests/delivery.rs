@@ -186,6 +186,7 @@ fn frame(from: ClusterId, tick: u64, ops: Vec<RoutedOp>) -> Vec<u8> {
         impulses: Vec::new(),
         own_writes: Vec::new(),
         leaving: false,
+        unmodelled: Vec::new(),
     })
 }
 
@@ -373,6 +374,7 @@ fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) 
             impulses: Vec::new(),
             own_writes: Vec::new(),
             leaving: false,
+            unmodelled: Vec::new(),
         });
         injector.publish(&to_b, &bytes).expect("publish");
         std::thread::sleep(Duration::from_millis(20));

@@ -168,6 +168,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
         impulses: Vec::new(),
         own_writes: Vec::new(),
         leaving: false,
+        unmodelled: Vec::new(),
     };
     let target = mine[0].id;
     let mut expected = Tally::default();

@@ -145,6 +145,7 @@ fn batch_frame(batch: usize, acks: usize) -> PhysicsEventsFrame {
         impulses: Vec::new(),
         own_writes: Vec::new(),
         leaving: false,
+        unmodelled: Vec::new(),
     }
 }
 

@@ -367,6 +367,17 @@ impl Cluster {
         to: ClusterId,
     ) -> Result<(), ClusterError> {
         handoff::check(&self.sim, &self.config, &self.neighbours, entity, to)?;
+        if self
+            .handoffs
+            .declined_by(entity, to, self.sim.tick(), &self.config)
+        {
+            return Err(ClusterError::Transfer {
+                entity,
+                to,
+                reason: "the neighbour cannot model it (its shape is not registered there) or \
+                         did not take it lately",
+            });
+        }
         self.handoffs.queue(entity, to);
         Ok(())
     }

@@ -116,14 +116,13 @@ impl Cluster {
         for (entity, to) in handoffs {
             // Held for a neighbour taken for dead until it is back (a policy may name one as
             // a member of a group it sees in contact, not from `owned`).
-            // Nor handed again, for four neighbour timeouts, where a hand-off of it came back
-            // untaken.
-            let span = 4 * self.config.neighbour_timeout_ticks;
+            // Nor handed where it was declined lately (its hand-off came back untaken, or the
+            // neighbour cannot model it).
             if self.handoffs.is_queued(entity)
                 || self.custody.adopted_from(entity).is_some()
                 || self
                     .handoffs
-                    .came_back_from(entity, to, self.sim.tick(), span)
+                    .declined_by(entity, to, self.sim.tick(), &self.config)
             {
                 continue;
             }
@@ -158,6 +157,7 @@ impl Cluster {
             impulses: self.seam.take_for(neighbour),
             own_writes: Vec::new(),
             leaving: self.leaving,
+            unmodelled: self.handoffs.take_unmodelled(neighbour),
         };
         self.publish_events_frame(neighbour, &frame)
     }

@@ -266,6 +266,7 @@ impl Cluster {
             );
         }
         self.neighbours.hear_leaving(events);
+        self.handoffs.hear_unmodelled(events, self.sim.tick());
     }
 
     /// This world's contacts of the last step and the neighbours' reports, each surfaced once.

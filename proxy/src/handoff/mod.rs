@@ -19,7 +19,7 @@
 //! ([`Handoffs::given_last_tick`]); the taker counts it from the next tick
 //! (`ClusterEvent::HandoffTaken::since`), however late its frame arrives.
 
-use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap};
+use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap, PhysicsEventsFrame};
 use seam_sim::{BodyRole, ClusterSim};
 
 use crate::config::{ClusterConfig, ProxyMode};
@@ -134,18 +134,47 @@ pub(crate) struct Handoffs {
     /// neighbour that cannot model a body, its shape unregistered there say, would leave it
     /// unowned each time).
     refused_by: IdMap<EntityId, (ClusterId, u64)>,
+    /// Neighbours' entities whose states this cluster refused this tick because it cannot
+    /// model them, by owner: told to the owner in the next events frame to it.
+    unmodelled: IdMap<ClusterId, Vec<EntityId>>,
 }
 
 impl Handoffs {
-    /// Whether a hand-off of `entity` to `to` came back untaken less than `span` ticks
-    /// before `tick`.
-    pub(crate) fn came_back_from(
+    /// Notes that this cluster refused a state of `entity`, of `owner`'s, as one it cannot
+    /// model (its shape unregistered here).
+    pub(crate) fn cannot_model(&mut self, owner: ClusterId, entity: EntityId) {
+        let refused = self.unmodelled.entry(owner).or_default();
+        if !refused.contains(&entity) {
+            refused.push(entity);
+        }
+    }
+
+    /// The entities of `owner`'s this cluster could not model since the last call.
+    pub(crate) fn take_unmodelled(&mut self, owner: ClusterId) -> Vec<EntityId> {
+        self.unmodelled.swap_remove(&owner).unwrap_or_default()
+    }
+
+    /// Takes in the neighbours' word, in `frames`, of this cluster's entities they cannot
+    /// model: none is handed to them (by the policy, or by game code) for a while from `tick`.
+    pub(crate) fn hear_unmodelled(&mut self, frames: &[(PhysicsEventsFrame, u64)], tick: u64) {
+        for (frame, _) in frames {
+            for &entity in &frame.unmodelled {
+                self.refused_by.insert(entity, (frame.from, tick));
+            }
+        }
+    }
+
+    /// Whether a hand-off of `entity` to `to` came back untaken, or `to` said it cannot
+    /// model the entity, lately: within four neighbour timeouts (at least 240 ticks) of
+    /// `tick`.
+    pub(crate) fn declined_by(
         &self,
         entity: EntityId,
         to: ClusterId,
         tick: u64,
-        span: u64,
+        config: &ClusterConfig,
     ) -> bool {
+        let span = 4 * config.neighbour_timeout_ticks.max(60);
         self.refused_by
             .get(&entity)
             .is_some_and(|&(by, at)| by == to && tick.saturating_sub(at) < span)

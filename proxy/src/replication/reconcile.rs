@@ -1,8 +1,8 @@
 //! Bringing the world in line with a neighbour's replication frame: hand-offs in, proxies
 //! spawned, moved and despawned.
 
-use seam_sim::ClusterSim;
 use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap};
+use seam_sim::{BodyRole, ClusterSim, SimError};
 
 use super::interest::{Interest, extent};
 use super::proxies::Proxies;
@@ -37,6 +37,24 @@ impl Reconcile<'_> {
 
     fn rejected(&mut self, from: ClusterId) {
         self.events.emit(ClusterEvent::StateRejected { from });
+    }
+
+    /// Spawns `state`'s body with `role`; one this world cannot model (a catalog shape it has
+    /// not registered) is noted for its owner `from`, who then hands it nowhere near here.
+    fn spawn(
+        &mut self,
+        state: &EntityState,
+        role: BodyRole,
+        from: ClusterId,
+    ) -> Result<(), Refused> {
+        match self.sim.spawn(state, role) {
+            Ok(()) => Ok(()),
+            Err(SimError::UnknownShapeOf { .. }) => {
+                self.handoffs.cannot_model(from, state.id);
+                Err(Refused)
+            }
+            Err(_) => Err(Refused),
+        }
     }
 
     /// Brings the world in line with one neighbour's replication frame.
@@ -161,9 +179,7 @@ impl Reconcile<'_> {
             // Handed to this cluster an entity it had no proxy of: it starts as the body
             // (counted: its surroundings here were not modelled around it before).
             None if state.cluster_id == me => {
-                self.sim
-                    .spawn(state, owner_role(state))
-                    .map_err(|_| Refused)?;
+                self.spawn(state, owner_role(state), from)?;
                 self.events.emit(ClusterEvent::HandoffWithoutProxy {
                     entity: state.id,
                     from,
@@ -173,9 +189,11 @@ impl Reconcile<'_> {
             }
             None if state.cluster_id == from && self.visible(state) => {
                 listed.insert(state.id, ());
-                self.sim
-                    .spawn(state, self.config.proxy_mode.role_for(state.body.motion))
-                    .map_err(|_| Refused)?;
+                self.spawn(
+                    state,
+                    self.config.proxy_mode.role_for(state.body.motion),
+                    from,
+                )?;
                 self.events
                     .emit(ClusterEvent::ProxySpawned { entity: state.id });
                 Ok(())

@@ -248,6 +248,11 @@ pub struct PhysicsEventsFrame {
     /// The sender stops on purpose after this frame: it is not to be taken for dead, and what
     /// it owns leaves with it (see `seam_proxy::Cluster::leave`).
     pub leaving: bool,
+    /// The destination's entities whose states the sender refused this tick because it cannot
+    /// model them (a catalog shape it has not registered): the destination hands them nowhere
+    /// near the sender (see `seam_proxy::Cluster::transfer_authority`).
+    #[serde(deserialize_with = "grow_as_decoded")]
+    pub unmodelled: Vec<EntityId>,
 }
 
 impl PhysicsEventsFrame {
@@ -265,6 +270,7 @@ impl PhysicsEventsFrame {
             impulses: Vec::new(),
             own_writes: Vec::new(),
             leaving: false,
+            unmodelled: Vec::new(),
         }
     }
 }
