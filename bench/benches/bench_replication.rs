@@ -32,6 +32,7 @@ const STATES: usize = 10_000;
 
 fn events(batch: usize) -> PhysicsEventsFrame {
     PhysicsEventsFrame {
+        incarnation: 0,
         from: ClusterId::from_u128(1),
         tick: 7,
         stage: Stage::AfterStep,
@@ -105,6 +106,7 @@ impl EndToEnd {
     fn new(backend: &str, encoding: StateEncoding, modelled_every: usize) -> Self {
         let owner = ClusterId::from_u128(1);
         let frame = ReplicationFrame {
+            incarnation: 0,
             from: owner,
             tick: 1,
             states: (0..STATES).map(|i| state(i, owner)).collect(),

@@ -229,6 +229,7 @@ fn sim_step(c: &mut Criterion) {
 
 fn replication_frame(c: &mut Criterion) {
     let frame = ReplicationFrame {
+        incarnation: 0,
         from: HERE,
         tick: 1,
         states: (0..BODIES).map(state).collect(),

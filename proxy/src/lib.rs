@@ -191,7 +191,9 @@
 //! frame tagged further ahead than a live neighbour could be (pods share one schedule: beyond
 //! this cluster's own tick, or its last frame plus one tick per `dt` since, by more than twice
 //! the timeout) is dropped (`frames_implausible`): it could only be forged, and would otherwise
-//! pass for the newest.
+//! pass for the newest. Every frame carries its pod's incarnation ([`Cluster::incarnation`]):
+//! frames of a pod older than one heard since of the same cluster are refused
+//! (`frames_stale`, logged naming the sender), and a newer pod's ticks count afresh.
 //!
 //! A cluster that stops on purpose calls [`Cluster::leave`]: a last events frame to each
 //! neighbour, marked `leaving`. They take it as [`NeighbourStatus::Left`] (one tick later, so

@@ -47,6 +47,7 @@ fn state(i: u32) -> EntityState {
 
 fn replication() -> ReplicationFrame {
     ReplicationFrame {
+        incarnation: 0,
         from: ClusterId::from_u128(7),
         tick: 42,
         states: (0..20).map(state).collect(),
@@ -84,6 +85,7 @@ fn events() -> PhysicsEventsFrame {
         PhysicsOp::Sleep { target },
     ];
     PhysicsEventsFrame {
+        incarnation: 0,
         from: ClusterId::from_u128(9),
         tick: 100,
         stage: Stage::AfterStep,
@@ -422,6 +424,7 @@ fn delta_frames_carry_their_keyframe_and_unchanged_bits() {
 fn a_body_motion_round_trips_and_both_flags_are_malformed() {
     use seam_sim::wire::Motion;
     let mut frame = ReplicationFrame {
+        incarnation: 0,
         from: ClusterId::from_u128(7),
         tick: 42,
         states: vec![state(0), state(3), state(6)],

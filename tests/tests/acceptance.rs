@@ -425,6 +425,7 @@ fn flip_only_from_the_owner(ctx: &TestContext) {
     let mut forger = ctx.open();
     let tick = clusters[1].sim().tick();
     let forged = ReplicationFrame {
+        incarnation: 0,
         from: a,
         tick,
         states: vec![EntityState {

@@ -78,6 +78,7 @@ fn steady_state_adds_no_allocation<S: iceoryx2::service::Service>(backend: Backe
     // reused encoder, its records written straight into the loaned buffer.
     let owner = ClusterId::from_u128(1);
     let mut replication = ReplicationFrame {
+        incarnation: 0,
         from: owner,
         tick: 1,
         states: (0..64u32)

@@ -176,6 +176,7 @@ const SEQ: u64 = 1_796_000_000_000_000;
 /// An events frame from `from`, tagged `tick`, with `ops`.
 fn frame(from: ClusterId, tick: u64, ops: Vec<RoutedOp>) -> Vec<u8> {
     wire::encode(&PhysicsEventsFrame {
+        incarnation: 0,
         from,
         tick,
         stage: Stage::AfterStep,
@@ -353,6 +354,7 @@ fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) 
     let mut seen = Vec::new();
     for (tick, report) in (1..).zip(reports) {
         let replication = ReplicationFrame {
+            incarnation: 0,
             from: a,
             tick,
             states: vec![far],
@@ -364,6 +366,7 @@ fn a_contact_report_surfaces_once_and_a_stale_one_not_at_all(ctx: &TestContext) 
             .publish(&seam_proxy::replication(a), &bytes)
             .expect("publish");
         let bytes = wire::encode(&PhysicsEventsFrame {
+            incarnation: 0,
             from: a,
             tick,
             stage: Stage::AfterStep,

@@ -146,6 +146,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
     let (events_channel, replication_channel) = (physics_events(me), replication(neighbour));
     let mut noise = Noise(0x005e_ed0f_5ea7);
     let op_frame = |tick: u64, ops: Vec<PhysicsOp>| PhysicsEventsFrame {
+        incarnation: 0,
         from: neighbour,
         tick,
         stage: Stage::AfterStep,
@@ -268,6 +269,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                     forged.cluster_id = neighbour;
                     forged.position[1] += 10.0;
                     let frame = ReplicationFrame {
+                        incarnation: 0,
                         from: neighbour,
                         tick: tick_tag,
                         states: vec![forged],
@@ -279,6 +281,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                 // A replication frame on the neighbour's channel naming another sender.
                 6 => {
                     let frame = ReplicationFrame {
+                        incarnation: 0,
                         from: me,
                         tick: tick_tag,
                         states: Vec::new(),
@@ -318,6 +321,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                         (&events_channel, vec![wire::encode(&frame)])
                     } else {
                         let frame = ReplicationFrame {
+                            incarnation: 0,
                             from: neighbour,
                             tick: ahead,
                             states: Vec::new(),
@@ -328,6 +332,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                 // Records that do not read: an owner or a body spec past the frame's tables.
                 11 => {
                     let frame = ReplicationFrame {
+                        incarnation: 0,
                         from: neighbour,
                         tick: tick_tag,
                         states: vec![ball_at(1.0, neighbour), ball_at(2.0, neighbour)],
@@ -349,6 +354,7 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                     expected.accepted += 1;
                     expected.states_rejected += states.len() as u64;
                     let frame = ReplicationFrame {
+                        incarnation: 0,
                         from: neighbour,
                         tick: tick_tag,
                         states,

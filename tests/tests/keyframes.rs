@@ -51,7 +51,7 @@ impl Transport for Dropping {
         self.inner.publish(channel, &self.scratch[..len])
     }
 
-    fn claim(&mut self, name: &str, holder: &str) -> Result<(), seam_transport::ClaimError> {
+    fn claim(&mut self, name: &str, holder: &str) -> Result<u64, seam_transport::ClaimError> {
         self.inner.claim(name, holder)
     }
 

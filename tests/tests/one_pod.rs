@@ -6,14 +6,18 @@
 //! - a pod killed with SIGKILL is replaced: on shared memory at once (iceoryx2's dead-node
 //!   cleanup frees its claim), on Redis once its lease lapsed;
 //! - on Redis, a cluster whose lease lapsed while it did not tick and was taken over stops at
-//!   its next tick with the error naming the new holder.
+//!   its next tick with the error naming the new holder;
+//! - a pod restarted with its own tick count is heard at once, and frames of the pod it
+//!   replaced, published after it (ticks ahead of the new pod's), are refused as stale by
+//!   their incarnation, counted, and change nothing.
 
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use rustix::process::{Pid, Signal, kill_process};
-use seam_proxy::{Cluster, ClusterConfig, ClusterError, monotonic_ns};
-use seam_sim::wire::ClusterId;
+use seam_proxy::{Cluster, ClusterConfig, ClusterError, NeighbourStatus, monotonic_ns};
+use seam_sim::BodyRole;
+use seam_sim::wire::{ClusterId, EntityState, ReplicationView};
 use seam_tests::{TestContext, finish_pod, scene_path, start_pod};
 use seam_transport::ClaimError;
 
@@ -23,7 +27,8 @@ seam_tests::backend_tests!(
     [shm: Shm, redis: Redis],
     [
         a_second_pod_of_a_running_cluster_refuses_to_start,
-        a_killed_pod_is_replaced
+        a_killed_pod_is_replaced,
+        frames_of_a_replaced_pod_are_refused_by_its_incarnation
     ]
 );
 
@@ -155,4 +160,92 @@ fn a_cluster_whose_lease_lapsed_and_was_taken_over_stops(ctx: &TestContext) {
         other => panic!("the old cluster must stop: {other:?}"),
     }
     new.tick(|_, _| {}).expect("the new one ticks on");
+}
+
+/// `cluster`'s proxy (or body) of `entity`: its x.
+fn x_of(cluster: &Cluster, entity: seam_sim::wire::EntityId) -> Option<f32> {
+    cluster.sim().state(entity).map(|s| s.position[0])
+}
+
+fn frames_of_a_replaced_pod_are_refused_by_its_incarnation(ctx: &TestContext) {
+    let url = url(ctx);
+    let (west, east) = (ClusterId::random(), ClusterId::random());
+    let config = |id, neighbour| {
+        let mut config = ClusterConfig::new(id, vec![neighbour], &url);
+        config.gravity = [0.0; 3];
+        config
+    };
+    let mut spy = seam_transport::open(&url).expect("a spy on west's channel");
+    spy.subscribe(&seam_proxy::replication(west))
+        .expect("subscribe");
+    let mut east_pod = Cluster::new(config(east, west)).expect("east");
+    let mut old = Cluster::new(config(west, east)).expect("west's first pod");
+    let ball = seam_tests::ball_at(-3.0, west);
+    old.spawn_owned(&ball, BodyRole::Dynamic).expect("spawn");
+    for _ in 0..40 {
+        old.tick(|_, _| {}).expect("west ticks");
+        east_pod.tick(|_, _| {}).expect("east ticks");
+    }
+    assert_eq!(
+        x_of(&east_pod, ball.id),
+        Some(-3.0),
+        "east proxies the ball"
+    );
+    // What west's first pod published, as a pod that lost its claim but still publishes would.
+    let mut sent: Vec<Vec<u8>> = Vec::new();
+    while let Some(message) = spy.try_receive().expect("receive") {
+        sent.push(message.payload.to_vec());
+    }
+    let old_incarnation = old.incarnation();
+    drop(old);
+
+    // West's new pod counts its own ticks from 0 and holds the ball elsewhere.
+    let mut new = Cluster::new(config(west, east)).expect("west's new pod");
+    assert!(
+        new.incarnation() > old_incarnation,
+        "a later pod has a later incarnation: {} after {old_incarnation}",
+        new.incarnation()
+    );
+    let moved = EntityState { ..ball }.at([-6.0, 0.0, 0.0]);
+    new.spawn_owned(&moved, BodyRole::Dynamic).expect("spawn");
+    for _ in 0..5 {
+        new.tick(|_, _| {}).expect("west ticks");
+        east_pod.tick(|_, _| {}).expect("east ticks");
+    }
+    assert_eq!(
+        x_of(&east_pod, ball.id),
+        Some(-6.0),
+        "the new pod is heard at once, its ticks behind its predecessor's"
+    );
+    assert_eq!(east_pod.stats().frames_replayed, 0);
+
+    // The old pod's last frames, ahead of the new pod in ticks, arrive now.
+    let stale: Vec<&Vec<u8>> = sent
+        .iter()
+        .filter(|bytes| ReplicationView::parse(bytes).is_ok_and(|v| v.tick() > 30))
+        .collect();
+    assert!(stale.len() >= 5, "{} frames of west's old pod", stale.len());
+    for bytes in &stale {
+        let view = ReplicationView::parse(bytes).expect("a frame");
+        assert_eq!(view.incarnation(), old_incarnation);
+        spy.publish(&seam_proxy::replication(west), bytes)
+            .expect("publish");
+    }
+    std::thread::sleep(Duration::from_millis(100));
+    for _ in 0..5 {
+        new.tick(|_, _| {}).expect("west ticks");
+        east_pod.tick(|_, _| {}).expect("east ticks");
+    }
+    let stats = east_pod.stats();
+    assert_eq!(
+        stats.frames_stale,
+        stale.len() as u64,
+        "every frame of the replaced pod is refused as stale: {stats:#}"
+    );
+    assert_eq!(stats.frames_replayed, 0, "{stats:#}");
+    assert_eq!(x_of(&east_pod, ball.id), Some(-6.0), "and changes nothing");
+    assert_eq!(
+        east_pod.neighbour_status(west),
+        Some(NeighbourStatus::Alive)
+    );
 }

@@ -112,7 +112,14 @@ pub trait Transport {
     /// otherwise), renewed by [`Transport::keep_claims`]: a new holder takes a name over only
     /// once the old lease lapsed, so this waits up to one lease for a holder that stopped
     /// renewing (killed) and answers `Held` as soon as it sees the lease renewed.
-    fn claim(&mut self, name: &str, holder: &str) -> Result<(), ClaimError>;
+    ///
+    /// Returns the claim's incarnation: the time it was taken, in microseconds since the UNIX
+    /// epoch, by the backend's one clock (this host's on iceoryx2, the Redis server's `TIME`
+    /// on Redis, read in the same script that takes the lease). Holders of a name follow one
+    /// another, so each later holder's incarnation is larger (unless that clock is stepped
+    /// back by more than the time between them): a receiver that keeps the largest it has
+    /// seen tells a stale holder's messages from its successor's (a fencing token).
+    fn claim(&mut self, name: &str, holder: &str) -> Result<u64, ClaimError>;
 
     /// Keeps this transport's claims alive; call it often (every tick). On Redis it renews each
     /// lease once a third of it has passed, and takes a lapsed one back if nobody else took it;

@@ -125,6 +125,7 @@ pub fn run(plan: &OpsPlan, mut progress: impl FnMut(&str)) -> BenchResult<Vec<Op
 /// A frame of `batch` ops carrying `acks` answers, numbered as a pod numbers them.
 fn batch_frame(batch: usize, acks: usize) -> PhysicsEventsFrame {
     PhysicsEventsFrame {
+        incarnation: 0,
         from: ClusterId::random(),
         tick: 0,
         stage: Stage::AfterStep,

@@ -38,6 +38,7 @@ impl Cluster {
             let neighbour = self.config.neighbours[i];
             let gone = self.neighbours.is_gone(neighbour);
             let mut frame = PhysicsEventsFrame::empty(me, tick, Stage::BeforeStep, monotonic_ns());
+            frame.incarnation = self.incarnation;
             frame.ops = self
                 .routing
                 .send(me, neighbour, tick, &self.retry, gone, &mut self.events);

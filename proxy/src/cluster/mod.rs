@@ -93,6 +93,8 @@ pub struct Cluster {
     /// Ticking free-running (`tick`, `wait`) rather than in lock-step: the inbox then keeps
     /// one replication frame per neighbour.
     free_running: bool,
+    /// This pod's incarnation (see [`Cluster::incarnation`]).
+    incarnation: u64,
     /// Set by [`Cluster::leave`]: every events frame from then on says so.
     leaving: bool,
     /// A tick has run up to the exchange and not finished yet (see
@@ -129,7 +131,7 @@ impl Cluster {
             cluster: config.cluster_id,
             source,
         };
-        transport
+        let incarnation = transport
             .claim(&channels::claim(config.cluster_id), &channels::claimant())
             .map_err(already)?;
         for &neighbour in &config.neighbours {
@@ -156,7 +158,8 @@ impl Cluster {
             neighbours: Neighbours::new(&config),
             custody: Custody::default(),
             handoffs: Handoffs::default(),
-            publisher: Publisher::new(&config),
+            publisher: Publisher::new(&config, incarnation),
+            incarnation,
             interest: Interest::new(config.region, config.spread),
             proxies: Proxies::default(),
             numbers: Numbers::from_clock(),
@@ -284,6 +287,14 @@ impl Cluster {
             .collect()
     }
 
+    /// This pod's incarnation: when it claimed its cluster, by the transport's clock
+    /// (microseconds since the UNIX epoch; see [`Transport::claim`]). Every frame it publishes
+    /// carries it, and neighbours refuse frames of an older incarnation than the newest they
+    /// have seen of this cluster, so a pod taken over that still publishes is not heard.
+    pub fn incarnation(&self) -> u64 {
+        self.incarnation
+    }
+
     /// What this cluster knows of `neighbour`'s liveness (`None` for a non-neighbour).
     pub fn neighbour_status(&self, neighbour: ClusterId) -> Option<NeighbourStatus> {
         self.neighbours.status(neighbour)
@@ -339,6 +350,7 @@ impl Cluster {
                 monotonic_ns(),
             );
             frame.leaving = true;
+            frame.incarnation = self.incarnation;
             self.publish_events_frame(neighbour, &frame)?;
         }
         Ok(())

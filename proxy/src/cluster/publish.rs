@@ -26,6 +26,7 @@ impl Cluster {
         let frame = ReplicationFrame {
             from: me,
             tick: 0,
+            incarnation: self.incarnation,
             states: Vec::new(),
         };
         let room = frame.max_encoded_len() + (owned + owned / 4) * wire::MAX_STATE_LEN;
@@ -158,6 +159,7 @@ impl Cluster {
             own_writes: Vec::new(),
             leaving: self.leaving,
             unmodelled: self.handoffs.take_unmodelled(neighbour),
+            incarnation: self.incarnation,
         };
         self.publish_events_frame(neighbour, &frame)
     }

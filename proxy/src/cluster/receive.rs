@@ -6,6 +6,7 @@ use crate::clock::monotonic_ns;
 use crate::error::ClusterError;
 use crate::events::{ClusterEvent, FrameRefusal};
 use crate::inbox::{Frame, FrameKind, Refused, decode_frame};
+use crate::neighbours::Incarnation;
 
 impl Cluster {
     /// Moves everything the transport holds into the inbox.
@@ -59,6 +60,11 @@ impl Cluster {
         let frame = frame?;
         let (from, tick, kind) = (frame.from(), frame.tick(), frame.kind());
         let refuse = |reason| Err((reason, Some(from)));
+        match self.neighbours.incarnation(from, frame.incarnation()) {
+            Incarnation::Stale => return refuse(FrameRefusal::StaleIncarnation),
+            Incarnation::Restarted => self.restarted(from, frame.incarnation()),
+            Incarnation::Current => {}
+        }
         let mine = self.sim.tick();
         if self
             .neighbours
@@ -90,6 +96,18 @@ impl Cluster {
         } else {
             refuse(FrameRefusal::Replayed)
         }
+    }
+
+    /// A new pod of `neighbour` is heard: what its predecessor sent and is still held goes, and
+    /// its frames count from now on (the predecessor's are refused as stale).
+    fn restarted(&mut self, neighbour: seam_sim::wire::ClusterId, incarnation: u64) {
+        self.inbox.forget(neighbour);
+        tracing::info!(
+            cluster = %self.config.label(self.config.cluster_id),
+            neighbour = %self.config.label(neighbour),
+            incarnation,
+            "a new pod of the neighbour is heard: its earlier pod's frames are refused from now on"
+        );
     }
 
     /// Notes a frame from `neighbour` tagged `tick`; a neighbour back from the dead gets back

@@ -69,6 +69,8 @@ pub enum FrameRefusal {
     Replayed,
     /// Tagged further ahead than a live sender could be.
     Implausible,
+    /// From a pod of its cluster older than one heard since (taken over, still publishing).
+    StaleIncarnation,
 }
 
 /// One thing that happened in a cluster (see the module docs). Each is emitted once, where

@@ -193,6 +193,9 @@ pub struct ClusterStats {
     /// Frames tagged further ahead than a live sender could be (see the crate docs on
     /// liveness): dropped as forged.
     pub frames_implausible: u64,
+    /// Frames from a pod older than one of the same cluster heard since (its incarnation):
+    /// a pod taken over that still publishes, or its frames still on their way.
+    pub frames_stale: u64,
     /// Of `handoffs_out`, those the authority policy asked for (the rest game code asked for,
     /// or returned adopted entities).
     pub handoffs_by_policy: u64,
@@ -241,6 +244,7 @@ impl ClusterStats {
             FrameRefusal::WrongSender => &mut self.frames_wrong_sender,
             FrameRefusal::Replayed => &mut self.frames_replayed,
             FrameRefusal::Implausible => &mut self.frames_implausible,
+            FrameRefusal::StaleIncarnation => &mut self.frames_stale,
         }
     }
 
@@ -375,6 +379,7 @@ impl ClusterStats {
             + self.frames_wrong_sender
             + self.frames_replayed
             + self.frames_implausible
+            + self.frames_stale
     }
 }
 

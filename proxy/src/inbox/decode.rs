@@ -30,6 +30,14 @@ impl Frame {
         }
     }
 
+    /// Its sender's incarnation.
+    pub(crate) fn incarnation(&self) -> u64 {
+        match self {
+            Frame::Replication(f) => f.incarnation,
+            Frame::Events(f) => f.incarnation,
+        }
+    }
+
     /// Its kind.
     pub(crate) fn kind(&self) -> FrameKind {
         match self {

@@ -12,6 +12,7 @@ use seam_sim::wire::{ClusterId, EntityId, EntityState, IdMap, ReplicationView, W
 pub(crate) struct HeldReplication {
     pub(crate) from: ClusterId,
     pub(crate) tick: u64,
+    pub(crate) incarnation: u64,
     bytes: Arc<[u8]>,
     /// For a delta frame, the tick of the keyframe it is read against.
     key_tick: Option<u64>,
@@ -27,6 +28,7 @@ impl HeldReplication {
         Ok(Self {
             from: view.from(),
             tick: view.tick(),
+            incarnation: view.incarnation(),
             bytes: Arc::from(bytes),
             key_tick: view.delta().map(|d| d.key_tick),
             key: None,

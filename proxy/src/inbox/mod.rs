@@ -101,6 +101,13 @@ impl Inbox {
         }
     }
 
+    /// Drops every frame of `sender` held (sent by a pod a newer one replaced).
+    pub(crate) fn forget(&mut self, sender: ClusterId) {
+        self.replication.retain(|(_, from), _| *from != sender);
+        self.events.retain(|(_, from), _| *from != sender);
+        self.exchange.retain(|(_, from), _| *from != sender);
+    }
+
     /// The first of `neighbours` whose frame tagged `tick` is missing, and which kind.
     pub(crate) fn missing(
         &self,
@@ -196,7 +203,12 @@ mod tests {
     use super::*;
 
     fn held(from: ClusterId, tick: u64, states: Vec<EntityState>) -> HeldReplication {
-        let frame = ReplicationFrame { from, tick, states };
+        let frame = ReplicationFrame {
+            from,
+            tick,
+            incarnation: 0,
+            states,
+        };
         let bytes = frame.encode(StateEncoding::Exact).expect("encodes");
         HeldReplication::new(&bytes).expect("decodes")
     }

@@ -41,6 +41,20 @@ struct Peer {
     newest: [Option<u64>; FrameKind::COUNT],
     /// Host time of the tick its last frame was taken in, ns.
     heard_ns: u64,
+    /// The newest incarnation of its pod heard (see `Cluster::incarnation`).
+    incarnation: Option<u64>,
+}
+
+/// What a frame's incarnation says of its sender's pod.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Incarnation {
+    /// The pod heard before (or the first heard).
+    Current,
+    /// A pod taken over by a newer one, still publishing: its frames are refused.
+    Stale,
+    /// A new pod of the cluster: its ticks count afresh, and what its predecessor sent that
+    /// is still held is dropped.
+    Restarted,
 }
 
 impl Peer {
@@ -51,6 +65,7 @@ impl Peer {
             heard_at: 0,
             newest: [None; FrameKind::COUNT],
             heard_ns: 0,
+            incarnation: None,
         }
     }
 
@@ -245,6 +260,27 @@ impl Neighbours {
                 None => false,
             })
             .collect()
+    }
+
+    /// Sorts a frame of `neighbour` by the incarnation of the pod that sent it: older than the
+    /// newest heard is stale; newer starts the neighbour's ticks afresh.
+    pub(crate) fn incarnation(&mut self, neighbour: ClusterId, incarnation: u64) -> Incarnation {
+        let Some(peer) = self.peers.get_mut(&neighbour) else {
+            return Incarnation::Current;
+        };
+        match peer.incarnation {
+            Some(newest) if incarnation < newest => Incarnation::Stale,
+            Some(newest) if incarnation > newest => {
+                peer.incarnation = Some(incarnation);
+                peer.newest = [None; FrameKind::COUNT];
+                Incarnation::Restarted
+            }
+            Some(_) => Incarnation::Current,
+            None => {
+                peer.incarnation = Some(incarnation);
+                Incarnation::Current
+            }
+        }
     }
 
     /// Whether a frame of a live `neighbour` is tagged no later than one of its frames of the

@@ -13,4 +13,4 @@ mod liveness;
 
 pub(crate) use custody::Custody;
 pub use liveness::NeighbourStatus;
-pub(crate) use liveness::Neighbours;
+pub(crate) use liveness::{Incarnation, Neighbours};

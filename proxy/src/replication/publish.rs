@@ -19,6 +19,8 @@ use crate::handoff::Handoffs;
 #[derive(Debug)]
 pub(crate) struct Publisher {
     channel: String,
+    /// The pod's incarnation, stamped on every frame.
+    incarnation: u64,
     /// Tables reused by every frame.
     encoder: ReplicationEncoder,
     /// The last keyframe sent, for the delta frames after it.
@@ -31,9 +33,10 @@ pub(crate) struct Publisher {
 
 impl Publisher {
     /// The publisher of `config`'s cluster.
-    pub(crate) fn new(config: &ClusterConfig) -> Self {
+    pub(crate) fn new(config: &ClusterConfig, incarnation: u64) -> Self {
         Self {
             channel: channels::replication(config.cluster_id),
+            incarnation,
             encoder: ReplicationEncoder::default(),
             keyframes: Keyframes::new(config.keyframe_ticks, config.replication_interval),
             owned: Vec::new(),
@@ -93,6 +96,7 @@ impl Publisher {
         let frame = ReplicationFrame {
             from: me,
             tick,
+            incarnation: self.incarnation,
             states,
         };
         let len = encode_into(

@@ -253,6 +253,8 @@ pub struct PhysicsEventsFrame {
     /// near the sender (see `seam_proxy::Cluster::transfer_authority`).
     #[serde(deserialize_with = "grow_as_decoded")]
     pub unmodelled: Vec<EntityId>,
+    /// The sending pod's incarnation, as in [`ReplicationFrame::incarnation`](super::ReplicationFrame::incarnation).
+    pub incarnation: u64,
 }
 
 impl PhysicsEventsFrame {
@@ -271,6 +273,7 @@ impl PhysicsEventsFrame {
             own_writes: Vec::new(),
             leaving: false,
             unmodelled: Vec::new(),
+            incarnation: 0,
         }
     }
 }

@@ -29,4 +29,4 @@ pub use state::{
 };
 
 /// The format version every frame starts with.
-pub const WIRE_VERSION: u8 = 10;
+pub const WIRE_VERSION: u8 = 11;

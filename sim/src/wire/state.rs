@@ -218,6 +218,10 @@ pub struct ReplicationFrame {
     pub from: ClusterId,
     /// Its tick.
     pub tick: u64,
+    /// The publishing pod's incarnation: when it claimed its cluster (see
+    /// `seam_transport::Transport::claim`). A receiver refuses frames of an incarnation older
+    /// than one it has seen of the same cluster (a pod taken over, still publishing).
+    pub incarnation: u64,
     /// The states of the entities it owns (and, in the tick of a hand-off, the entity it gives
     /// away, already naming its new authority).
     pub states: Vec<EntityState>,

@@ -20,6 +20,14 @@ const HOLDER_WAIT: Duration = Duration::from_millis(300);
 /// Longest holder description kept.
 const MAX_HOLDER_LEN: usize = 512;
 
+/// This host's clock now, microseconds since the UNIX epoch: a claim's incarnation (see
+/// [`crate::Transport::claim`]).
+pub(super) fn now_us() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_micros() as u64)
+}
+
 /// A name this transport holds.
 pub(super) struct Claim<S: Service> {
     publisher: Publisher<S, [u8], ()>,

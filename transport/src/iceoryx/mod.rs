@@ -223,10 +223,10 @@ where
         self.outlet(channel, initial).map(|_| ())
     }
 
-    fn claim(&mut self, name: &str, holder: &str) -> Result<(), ClaimError> {
+    fn claim(&mut self, name: &str, holder: &str) -> Result<u64, ClaimError> {
         let claim = claim::Claim::take(&self.node, name, holder)?;
         self.claims.push(claim);
-        Ok(())
+        Ok(claim::now_us())
     }
 
     fn keep_claims(&mut self) -> Result<(), ClaimError> {

@@ -1,7 +1,10 @@
 //! Claims on Redis: a lease per name, `seam:claim:NAME`, whose value is the holder's token (this
 //! transport's publisher id, then its description). Taken with `SET ... NX PX`, renewed by a
 //! script that extends it only while the value is still this holder's, and given up when the
-//! transport is dropped (a clean stop does not make the next holder wait).
+//! transport is dropped (a clean stop does not make the next holder wait). The server's
+//! `TIME` when a lease is taken is the holder's incarnation: the next holder takes the name
+//! only after this lease lapsed, so by the server's own clock its incarnation is larger, and
+//! a server restarted with nothing kept still counts on from there.
 
 use std::time::{Duration, Instant};
 
@@ -17,6 +20,12 @@ const RENEW: &str = "local v = redis.call('GET', KEYS[1]) \
     if v == ARGV[1] then redis.call('PEXPIRE', KEYS[1], ARGV[2]) return 1 end \
     if not v then redis.call('SET', KEYS[1], ARGV[1], 'PX', ARGV[2]) return 2 end \
     return v";
+
+/// Takes the lease at `KEYS[1]` for `ARGV[1]` if nobody holds it (`SET ... NX PX ARGV[2]`)
+/// and returns the server's time then, in microseconds (the incarnation); `false` if held.
+const TAKE: &str = "if redis.call('SET', KEYS[1], ARGV[1], 'NX', 'PX', ARGV[2]) then \
+    local t = redis.call('TIME') return tonumber(t[1]) * 1000000 + tonumber(t[2]) end \
+    return false";
 
 /// Deletes the lease at `KEYS[1]` if it is still `ARGV[1]`'s.
 const RELEASE: &str = "if redis.call('GET', KEYS[1]) == ARGV[1] then \
@@ -51,16 +60,15 @@ impl RedisTransport {
         self.config.lease.as_millis() as u64
     }
 
-    /// `SET key token NX PX lease`: whether it was taken.
-    fn try_take(&mut self, key: &str, token: &str) -> redis::RedisResult<bool> {
-        let set: Option<String> = redis::cmd("SET")
+    /// `SET key token NX PX lease`: the server's time in microseconds if it was taken.
+    fn try_take(&mut self, key: &str, token: &str) -> redis::RedisResult<Option<u64>> {
+        redis::cmd("EVAL")
+            .arg(TAKE)
+            .arg(1)
             .arg(key)
             .arg(token)
-            .arg("NX")
-            .arg("PX")
             .arg(self.lease_ms())
-            .query(&mut self.publisher)?;
-        Ok(set.is_some())
+            .query(&mut self.publisher)
     }
 
     /// The value and time to live (ms) of `key`, if it exists.
@@ -75,7 +83,7 @@ impl RedisTransport {
     }
 
     /// See [`crate::Transport::claim`].
-    pub(super) fn take_lease(&mut self, name: &str, holder: &str) -> Result<(), ClaimError> {
+    pub(super) fn take_lease(&mut self, name: &str, holder: &str) -> Result<u64, ClaimError> {
         let unavailable = |e: redis::RedisError| ClaimError::Unavailable {
             name: name.to_owned(),
             reason: e.to_string(),
@@ -90,9 +98,9 @@ impl RedisTransport {
         // that renews is alive, and that is the answer.
         let deadline = Instant::now() + self.config.lease + POLL;
         let mut seen: Option<(String, i64)> = None;
-        loop {
-            if self.try_take(&key, &token).map_err(unavailable)? {
-                break;
+        let incarnation = loop {
+            if let Some(taken_us) = self.try_take(&key, &token).map_err(unavailable)? {
+                break taken_us;
             }
             let now = self.lease_state(&key).map_err(unavailable)?;
             let renewed = match (&seen, &now) {
@@ -114,14 +122,14 @@ impl RedisTransport {
                 seen = now;
             }
             std::thread::sleep(POLL);
-        }
+        };
         self.leases.push(Lease {
             name: name.to_owned(),
             key,
             token,
             renewed: Instant::now(),
         });
-        Ok(())
+        Ok(incarnation)
     }
 
     /// See [`crate::Transport::keep_claims`].

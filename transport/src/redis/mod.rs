@@ -254,7 +254,7 @@ impl Transport for RedisTransport {
         }
     }
 
-    fn claim(&mut self, name: &str, holder: &str) -> Result<(), ClaimError> {
+    fn claim(&mut self, name: &str, holder: &str) -> Result<u64, ClaimError> {
         self.take_lease(name, holder)
     }
 

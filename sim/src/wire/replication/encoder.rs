@@ -170,6 +170,7 @@ impl ReplicationEncoder {
             reserved2: [0; 2],
             tick: frame.tick.to_le_bytes(),
             states: (frame.states.len() as u32).to_le_bytes(),
+            incarnation: frame.incarnation.to_le_bytes(),
         }
     }
 

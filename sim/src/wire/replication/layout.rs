@@ -17,6 +17,7 @@ pub(super) struct Header {
     pub(super) reserved2: [u8; 2],
     pub(super) tick: [u8; 8],
     pub(super) states: [u8; 4],
+    pub(super) incarnation: [u8; 8],
 }
 
 #[derive(Clone, Copy, Pod, Zeroable)]

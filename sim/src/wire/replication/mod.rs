@@ -2,8 +2,9 @@
 //! place, with no decode pass.
 //!
 //! ```text
-//! header   20 bytes   version, encoding, owner count (u8), kind (u8: 0 full, 1 delta),
-//!                     spec count (u16), 0 0, tick (u64), state count (u32)
+//! header   28 bytes   version, encoding, owner count (u8), kind (u8: 0 full, 1 delta),
+//!                     spec count (u16), 0 0, tick (u64), state count (u32), the
+//!                     publisher's incarnation (u64)
 //! owners   16 bytes each   the owner table; the first is the publisher
 //! specs    44 bytes each   the body-spec table (shape kind, flags, 0 0, density, 3 sizes or a
 //!                         catalog id (u64) and bound, friction, restitution, linear and
@@ -155,6 +156,7 @@ impl ReplicationFrame {
         Ok(Self {
             from: view.from(),
             tick: view.tick(),
+            incarnation: view.incarnation(),
             states: view.states().collect::<WireResult<_>>()?,
         })
     }
@@ -166,7 +168,7 @@ mod tests {
 
     #[test]
     fn records_have_the_documented_sizes() {
-        assert_eq!(HEADER_LEN, 20);
+        assert_eq!(HEADER_LEN, 28);
         assert_eq!(SPEC_LEN, 44);
         assert_eq!(StateEncoding::Exact.record_len(), 77);
         assert_eq!(StateEncoding::Quantized.record_len(), 55);

@@ -21,6 +21,7 @@ enum Records<'a> {
 #[derive(Clone, Copy)]
 pub struct ReplicationView<'a> {
     tick: u64,
+    incarnation: u64,
     owners: &'a [[u8; OWNER_LEN]],
     specs: &'a [SpecRecord],
     records: Records<'a>,
@@ -109,6 +110,7 @@ impl<'a> ReplicationView<'a> {
         };
         Ok(Self {
             tick: u64::from_le_bytes(header.tick),
+            incarnation: u64::from_le_bytes(header.incarnation),
             owners: bytemuck::try_cast_slice(owner_bytes).map_err(cast)?,
             specs: bytemuck::try_cast_slice(spec_bytes).map_err(cast)?,
             records,
@@ -130,6 +132,11 @@ impl<'a> ReplicationView<'a> {
     /// The publisher's tick.
     pub fn tick(&self) -> u64 {
         self.tick
+    }
+
+    /// The publishing pod's incarnation (see [`ReplicationFrame::incarnation`](crate::wire::ReplicationFrame::incarnation)).
+    pub fn incarnation(&self) -> u64 {
+        self.incarnation
     }
 
     /// How the frame writes motion.
