@@ -3,6 +3,9 @@
 //! - a body is never handed to a neighbour that has not been heard from (on the world map,
 //!   never started): game code's `transfer_authority` is refused with the reason, and the
 //!   spatial policy keeps the body, which flies on owned;
+//! - a neighbour that starts late gets the body once it runs and has heard of it: owned by
+//!   exactly one cluster at every tick meanwhile, no jump at the hand-off, and a write from
+//!   middle's game code reaches it at its new owner;
 //! - a hand-off a live neighbour does not take (it does not list the giver as a neighbour, so
 //!   never reads its frames) comes back within `neighbour_timeout_ticks`, counted, and the
 //!   body moves on as the giver's;
@@ -18,6 +21,7 @@ seam_tests::backend_tests!(
     [shm: Shm, redis: Redis],
     [
         a_neighbour_never_started_is_never_handed_a_body,
+        a_late_neighbour_gets_the_body_once_it_runs,
         a_handoff_the_neighbour_does_not_take_comes_back,
         every_body_has_one_owner_at_every_tick_in_lockstep,
         every_body_has_one_owner_at_every_tick_free_running
@@ -77,6 +81,80 @@ fn a_neighbour_never_started_is_never_handed_a_body(ctx: &TestContext) {
     let role = middle.sim().info(ball.id).expect("info").role;
     assert_eq!(role, BodyRole::Dynamic, "and simulates it");
     assert_eq!(middle.stats().handoffs_out, 0, "{:?}", middle.stats());
+}
+
+fn a_late_neighbour_gets_the_body_once_it_runs(ctx: &TestContext) {
+    let configs = row(&ctx.url(), mapped);
+    let mut middle = Cluster::new(configs[1].clone()).expect("middle");
+    let mut west = Cluster::new(configs[0].clone()).expect("west");
+    let ball = ball_at(5.0, middle.id()).velocity([6.0, 0.0, 0.0]);
+    middle.spawn_owned(&ball, BodyRole::Dynamic).expect("spawn");
+    // One second without east: the ball is in east's region (x = 11) and still middle's.
+    for _ in 0..60 {
+        west.tick(|_, _| {}).expect("west ticks");
+        middle.tick(|_, _| {}).expect("middle ticks");
+    }
+    assert!(middle.owns(ball.id));
+    // East joins the world's tick count, as a pod on the world's shared schedule does
+    // (`Schedule::starting_at`, `Schedule::join`).
+    let mut east = Cluster::new(configs[2].clone()).expect("east starts late");
+    east.resume_at(middle.sim().tick());
+    let mut taken_at = None;
+    let mut last_x = middle.sim().state(ball.id).expect("state").position[0];
+    for tick in 0..15 {
+        west.tick(|_, _| {}).expect("west ticks");
+        middle.tick(|_, _| {}).expect("middle ticks");
+        east.tick(|_, _| {}).expect("east ticks");
+        if ctx.url().starts_with("redis") {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let owners = [&west, &middle, &east].map(|c| c.owns(ball.id));
+        assert_eq!(
+            owners.iter().filter(|&&o| o).count(),
+            1,
+            "after tick {tick} the ball has one owner: {owners:?}"
+        );
+        let owner = if east.owns(ball.id) { &east } else { &middle };
+        let x = owner.sim().state(ball.id).expect("state").position[0];
+        assert!(
+            (x - last_x - 0.1).abs() < 0.05,
+            "the ball flies on without a jump at tick {tick}: {last_x} -> {x}"
+        );
+        last_x = x;
+        if owners[2] && taken_at.is_none() {
+            taken_at = Some(tick);
+        }
+        if taken_at.is_some_and(|t| tick > t + 2) {
+            break;
+        }
+    }
+    let taken_at = taken_at.expect("east took the ball once it ran");
+    assert!(taken_at <= 10, "within a few ticks of starting: {taken_at}");
+    assert_eq!(middle.stats().handoffs_out, 1, "{}", middle.stats());
+    // Middle's game code pushes the ball, now east's and within middle's sight (its region
+    // and spread reach x = 14): the write reaches it there.
+    let before = east.sim().state(ball.id).expect("state").linvel[1];
+    middle
+        .tick(|_, physics| {
+            physics
+                .apply_impulse(ball.id, [0.0, 50.0, 0.0])
+                .expect("routed");
+        })
+        .expect("middle ticks");
+    for _ in 0..6 {
+        east.tick(|_, _| {}).expect("east ticks");
+        west.tick(|_, _| {}).expect("west ticks");
+        middle.tick(|_, _| {}).expect("middle ticks");
+        if ctx.url().starts_with("redis") {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    }
+    let after = east.sim().state(ball.id).expect("state").linvel[1];
+    assert!(
+        after - before > 0.5,
+        "middle's push reached the ball at east: {before} -> {after}"
+    );
+    assert_eq!(east.stats().ops_applied, 1, "{}", east.stats());
 }
 
 fn a_handoff_the_neighbour_does_not_take_comes_back(ctx: &TestContext) {
