@@ -196,6 +196,9 @@ pub struct FrameCounts {
     pub replayed: u64,
     /// Tagged further ahead than the sender could be.
     pub implausible: u64,
+    /// From a pod of the sender older than one heard since (its incarnation): a forged claim
+    /// copied from a frame of a pod killed and restarted since.
+    pub stale: u64,
     /// Lost to a full receive buffer.
     pub overflow: u64,
     /// Dropped by a pod with a frame key: no tag.

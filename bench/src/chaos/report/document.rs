@@ -105,21 +105,22 @@ fn injected_lines(r: &ChaosReport) -> String {
             i.forged_frames,
             i.garbage_deliveries + i.forged_deliveries,
             r.frames.untagged,
-            r.garbage_refused() + r.frames.replayed,
+            r.garbage_refused() + r.frames.replayed + r.frames.stale,
             mark(r.accounted())
         )
     } else {
         format!(
             "garbage frames: {} published, {} delivered, {} refused{}\n\
-             forged ownership claims: {} published, {} delivered, {} seen as replays{}",
+             forged ownership claims: {} published, {} delivered, {} seen as replays (or from a \
+             pod replaced since){}",
             i.garbage_frames,
             i.garbage_deliveries,
             r.garbage_refused(),
             mark(r.garbage_refused() == i.garbage_deliveries),
             i.forged_frames,
             i.forged_deliveries,
-            r.frames.replayed,
-            mark(r.frames.replayed == i.forged_deliveries)
+            r.frames.replayed + r.frames.stale,
+            mark(r.frames.replayed + r.frames.stale == i.forged_deliveries)
         )
     };
     if !r.accounted() {
@@ -162,7 +163,8 @@ fn counted_lines(r: &ChaosReport) -> String {
     format!(
         "entities: {} expected, {} owned once, {} lost, {} owned twice{}\n\
          frames: {} taken; refused: {} undecodable, {} other version, {} wrong sender, {} \
-         replayed, {} implausible tick; {} lost to full buffers; {} states rejected\n\
+         replayed, {} implausible tick, {} from a replaced pod; {} lost to full buffers; {} \
+         states rejected\n\
          ops (by name, every life's ledger): {} routed, {} applied; dropped: {} too old, {} \
          entity gone, {} invalid, {} overflow; {} given up; {} ended twice, {} answered with \
          the end unlogged; {} unanswered at the end, {} with a killed sender; {} lost{}; \
@@ -186,6 +188,7 @@ fn counted_lines(r: &ChaosReport) -> String {
         fr.wrong_sender,
         fr.replayed,
         fr.implausible,
+        fr.stale,
         fr.overflow,
         fr.states_rejected,
         op.routed,
@@ -376,7 +379,10 @@ fn held_row(r: &ChaosReport) -> Table {
         if r.keyed {
             "(untagged)".to_owned()
         } else {
-            pair(r.injected.forged_deliveries, r.frames.replayed)
+            pair(
+                r.injected.forged_deliveries,
+                r.frames.replayed + r.frames.stale,
+            )
         },
         format!(
             "{} / {} / {} / {}",

@@ -134,6 +134,7 @@ fn tally<'a>(
     frames.wrong_sender = s.frames_wrong_sender;
     frames.replayed = s.frames_replayed;
     frames.implausible = s.frames_implausible;
+    frames.stale = s.frames_stale;
     frames.states_rejected = s.states_rejected;
     (s, frames, recovery)
 }
@@ -154,7 +155,7 @@ pub(super) fn injected_unseen<'a>(
     } else {
         (
             injected.garbage_deliveries as i64 - refused,
-            injected.forged_deliveries as i64 - frames.replayed as i64,
+            injected.forged_deliveries as i64 - (frames.replayed + frames.stale) as i64,
         )
     }
 }
@@ -224,18 +225,19 @@ impl ChaosReport {
     }
 
     /// Whether every injected frame is accounted for. Without a key: each garbage delivery
-    /// refused, each forged one seen as a replay. With one: every delivery of either kind
+    /// refused, each forged one seen as a replay (or, copied from a pod restarted since, as
+    /// stale). With one: every delivery of either kind
     /// dropped as untagged before decoding, and none reaching the decoders.
     pub fn accounted(&self) -> bool {
         let i = &self.injected;
         if self.keyed {
             self.frames.untagged == i.garbage_deliveries + i.forged_deliveries
                 && self.garbage_refused() == 0
-                && self.frames.replayed == 0
+                && self.frames.replayed + self.frames.stale == 0
                 && self.frames.bad_tag == 0
         } else {
             self.garbage_refused() == i.garbage_deliveries
-                && self.frames.replayed == i.forged_deliveries
+                && self.frames.replayed + self.frames.stale == i.forged_deliveries
         }
     }
 
