@@ -3,7 +3,7 @@
 //! fail later with an error blaming someone else, or be quietly ignored is refused at once with
 //! an error naming the field, the value and the rule. docs/operations.md lists them.
 
-use seam_sim::wire::ClusterId;
+use seam_sim::wire::{ClusterId, EntityId};
 
 use crate::config::ClusterConfig;
 use crate::world::Region;
@@ -18,6 +18,42 @@ pub struct ConfigError {
     pub value: String,
     /// The rule it breaks.
     pub rule: &'static str,
+}
+
+/// Checks the names of clusters and entities.
+fn names(c: &ClusterConfig) -> Result<(), ConfigError> {
+    for (id, name) in &c.names {
+        if !name_ok(name) {
+            return Err(refuse(
+                format!("names[{id}]"),
+                name,
+                "a cluster's name is 1 to 64 printable characters",
+            ));
+        }
+    }
+    for (&id, name) in &c.entity_names {
+        entity_name(id, name)?;
+    }
+    Ok(())
+}
+
+/// Whether `name` is 1 to 64 printable characters, not all blank: the rule for the names of
+/// clusters and entities (`ClusterConfig::names`, `ClusterConfig::entity_names`).
+pub fn name_ok(name: &str) -> bool {
+    !name.trim().is_empty() && name.len() <= 64 && !name.chars().any(char::is_control)
+}
+
+/// Checks an entity's name (see `ClusterConfig::entity_names`).
+pub(crate) fn entity_name(id: EntityId, name: &str) -> Result<(), ConfigError> {
+    if name_ok(name) {
+        Ok(())
+    } else {
+        Err(refuse(
+            format!("entity_names[{id}]"),
+            name,
+            "an entity's name is 1 to 64 printable characters",
+        ))
+    }
 }
 
 fn refuse(
@@ -102,15 +138,7 @@ fn check(c: &ClusterConfig) -> Result<(), ConfigError> {
         ));
     }
     world(c)?;
-    for (id, name) in &c.names {
-        if name.trim().is_empty() || name.len() > 64 || name.chars().any(char::is_control) {
-            return Err(refuse(
-                format!("names[{id}]"),
-                name,
-                "a cluster's name is 1 to 64 printable characters",
-            ));
-        }
-    }
+    names(c)?;
     if !(c.neighbour_wait_ticks.is_finite() && c.neighbour_wait_ticks >= 0.0) {
         return Err(refuse(
             "neighbour_wait_ticks",
@@ -175,6 +203,13 @@ fn world(c: &ClusterConfig) -> Result<(), ConfigError> {
     }
     for (i, entry) in c.world.iter().enumerate() {
         region(&format!("world[{i}].region"), &entry.region)?;
+        if !(entry.spread.is_finite() && entry.spread >= 0.0) {
+            return Err(refuse(
+                format!("world[{i}].spread"),
+                entry.spread,
+                "must be finite and >= 0 m (0: not known, the region alone)",
+            ));
+        }
         if c.world[..i].iter().any(|e| e.id == entry.id) {
             return Err(refuse(format!("world[{i}].id"), entry.id, "listed twice"));
         }
@@ -304,6 +339,21 @@ mod tests {
                 "{bad:?}"
             );
         }
+        let (runner, stranger) = (EntityId::random(), EntityId::random());
+        c.entity_names.insert(runner, "runner".into());
+        assert_eq!(c.entity_label(runner), format!("runner ({runner})"));
+        assert_eq!(c.entity_label(stranger), stranger.to_string());
+        assert_eq!(check(&c), Ok(()));
+        for bad in ["", "\t", &"x".repeat(65)] {
+            assert_eq!(
+                refused(|c| {
+                    c.entity_names.insert(runner, bad.into());
+                })
+                .map(|f| f.starts_with("entity_names[")),
+                Some(true),
+                "{bad:?}"
+            );
+        }
     }
 
     #[test]
@@ -343,11 +393,13 @@ mod tests {
         };
         let map = |c: &ClusterConfig, region: Region| {
             let mut world = vec![WorldCluster {
+                spread: 0.0,
                 id: c.cluster_id,
                 region,
                 neighbours: c.neighbours.clone(),
             }];
             world.extend(c.neighbours.iter().map(|&n| WorldCluster {
+                spread: 0.0,
                 id: n,
                 region: Region::EVERYWHERE,
                 neighbours: vec![c.cluster_id],
@@ -388,5 +440,15 @@ mod tests {
             }),
             Some("world[2].id".to_owned())
         );
+        for bad in [-1.0, f32::NAN, f32::INFINITY] {
+            assert_eq!(
+                refused(|c| {
+                    c.world = map(c, region);
+                    c.world[1].spread = bad;
+                }),
+                Some("world[1].spread".to_owned()),
+                "{bad}"
+            );
+        }
     }
 }

@@ -1,7 +1,7 @@
 //! What a cluster is told at start: [`ClusterConfig`] and [`ProxyMode`].
 
 use seam_sim::BodyRole;
-use seam_sim::wire::{ClusterId, Motion, StateEncoding};
+use seam_sim::wire::{ClusterId, EntityId, Motion, StateEncoding};
 
 use crate::authority::AuthorityMode;
 use crate::world::{Region, WorldCluster};
@@ -140,6 +140,10 @@ pub struct ClusterConfig {
     /// Names of clusters (this one, its neighbours, any on the world map) for logs and
     /// reports; a cluster without one is shown by its id. `seam run` names the scene's.
     pub names: std::collections::BTreeMap<ClusterId, String>,
+    /// Names of entities for logs and reports, as for clusters (`seam run` names the scene's:
+    /// `name`, or `name#i` for the copies of a grid); more can be added as the game spawns
+    /// them ([`Cluster::name_entity`](crate::Cluster::name_entity)).
+    pub entity_names: std::collections::BTreeMap<EntityId, String>,
 }
 
 /// The default [`ClusterConfig::keyframe_ticks`]: half a second at 60 Hz.
@@ -176,6 +180,7 @@ impl ClusterConfig {
             exchange: true,
             neighbour_wait_ticks: 0.25,
             names: std::collections::BTreeMap::new(),
+            entity_names: std::collections::BTreeMap::new(),
         }
     }
 
@@ -209,6 +214,15 @@ impl ClusterConfig {
     /// How logs and reports name cluster `id`: `name (id)` where `names` has it, else the id.
     pub fn label(&self, id: ClusterId) -> String {
         match self.names.get(&id) {
+            Some(name) => format!("{name} ({id})"),
+            None => id.to_string(),
+        }
+    }
+
+    /// How logs and reports name entity `id`: `name (id)` where `entity_names` has it, else
+    /// the id.
+    pub fn entity_label(&self, id: EntityId) -> String {
+        match self.entity_names.get(&id) {
             Some(name) => format!("{name} ({id})"),
             None => id.to_string(),
         }

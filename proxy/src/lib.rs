@@ -293,7 +293,7 @@ pub use authority::{
 };
 pub use bridge::{Bridge, BridgeRoutes, DirectionCounters, DirectionStats};
 pub use channels::{physics_events, replication};
-pub use checks::ConfigError;
+pub use checks::{ConfigError, name_ok};
 pub use clock::monotonic_ns;
 pub use cluster::{Cluster, DRAIN_S};
 pub use config::{ClusterConfig, DEFAULT_KEYFRAME_TICKS, ProxyMode};

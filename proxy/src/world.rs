@@ -76,6 +76,10 @@ pub struct WorldCluster {
     pub region: Region,
     /// The clusters whose entities it sees and writes to.
     pub neighbours: Vec<ClusterId>,
+    /// How far beyond its region it models neighbour entities (its `ClusterConfig::spread`):
+    /// what a hand-off to it is checked against (see `Cluster::transfer_authority`). 0 where
+    /// not known: then taken to be the spread of the cluster checking.
+    pub spread: f32,
 }
 
 /// The world map of clusters given as (id, region, spread): each cluster's neighbours are those
@@ -88,6 +92,7 @@ pub fn world_map(clusters: &[(ClusterId, Region, f32)]) -> Vec<WorldCluster> {
         .map(|&(id, region, spread)| WorldCluster {
             id,
             region,
+            spread,
             neighbours: clusters
                 .iter()
                 .filter(|(other, ..)| *other != id)

@@ -200,7 +200,7 @@ fn a_state_costs_its_record_and_the_tables_are_shared() {
     // 20 states of one owner and four specs (four shapes, each with its material).
     for (encoding, record) in [(StateEncoding::Exact, 77), (StateEncoding::Quantized, 55)] {
         let len = frame.encoded_len(encoding).expect("encodes");
-        assert_eq!(len, 20 + 16 + 4 * 44 + 20 * record);
+        assert_eq!(len, 28 + 16 + 4 * 44 + 20 * record);
         assert_eq!(encoding.record_len(), record);
     }
 }
@@ -250,8 +250,8 @@ fn framing_errors_are_named() {
 fn a_bad_record_is_an_error_in_its_place_and_the_others_read() {
     let frame = replication();
     let mut bytes = encode(&frame);
-    // Header 20, one owner 16, four specs 176; record 5's owner index is at offset 22.
-    let record = |i: usize| 20 + 16 + 176 + i * 77;
+    // Header 28, one owner 16, four specs 176; record 5's owner index is at offset 22.
+    let record = |i: usize| 28 + 16 + 176 + i * 77;
     bytes[record(5) + 22] = 9;
     // Record 7's spec index points past the table.
     bytes[record(7) + 23] = 200;
@@ -439,9 +439,9 @@ fn a_body_motion_round_trips_and_both_flags_are_malformed() {
     }
     let mut bytes = encode(&frame);
     assert_eq!(ReplicationFrame::decode(&bytes), Ok(frame.clone()));
-    // Header 20, one owner 16; the spec table follows, the kinematic body's second: flags at
+    // Header 28, one owner 16; the spec table follows, the kinematic body's second: flags at
     // byte 1 of each 44-byte spec.
-    let flags = 20 + 16 + 44 + 1;
+    let flags = 28 + 16 + 44 + 1;
     assert_eq!(
         bytes[flags] & 6,
         4,

@@ -322,6 +322,7 @@ pub fn row_configs(url: &str, spans: &[(f32, f32)]) -> Vec<seam_proxy::ClusterCo
         .iter()
         .enumerate()
         .map(|(i, &(x0, x1))| WorldCluster {
+            spread: 0.0,
             id: ids[i],
             region: Region {
                 min: [x0, -100.0, -100.0],

@@ -425,7 +425,8 @@ fn flip_only_from_the_owner(ctx: &TestContext) {
     let mut forger = ctx.open();
     let tick = clusters[1].sim().tick();
     let forged = ReplicationFrame {
-        incarnation: 0,
+        // What a forger copying A's frames would copy.
+        incarnation: clusters[0].incarnation(),
         from: a,
         tick,
         states: vec![EntityState {

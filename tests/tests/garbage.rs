@@ -338,9 +338,9 @@ fn flood_is_counted_and_changes_nothing(ctx: &TestContext) {
                         states: vec![ball_at(1.0, neighbour), ball_at(2.0, neighbour)],
                     };
                     let mut bytes = exact(&frame);
-                    // Header 20, one owner 16, one spec 44; in a record the owner index is
+                    // Header 28, one owner 16, one spec 44; in a record the owner index is
                     // byte 22, the spec index bytes 23-24.
-                    let records = 20 + 16 + 44;
+                    let records = 28 + 16 + 44;
                     bytes[records + 22] = 1 + (noise.next() % 200) as u8;
                     bytes[records + 77 + 23] = 1 + (noise.next() % 200) as u8;
                     expected.accepted += 1;

@@ -221,6 +221,7 @@ fn a_hand_back_the_dead_never_took_is_taken_back() {
         config.neighbour_timeout_ticks = 10;
         config.world = (0..2)
             .map(|i| WorldCluster {
+                spread: 2.0,
                 id: ids[i],
                 region: regions[i],
                 neighbours: vec![ids[1 - i]],
@@ -229,7 +230,8 @@ fn a_hand_back_the_dead_never_took_is_taken_back() {
     });
     let b = clusters[1].id();
     clusters[1].set_authority_policy(Box::new(HandEverythingTo(a)));
-    let ball = ball_at(-5.0, a);
+    // Within B's spread, so B models it and may be handed it.
+    let ball = ball_at(-1.0, a);
     clusters[0]
         .spawn_owned(&ball, BodyRole::Dynamic)
         .expect("spawn");

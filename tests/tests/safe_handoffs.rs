@@ -6,6 +6,9 @@
 //! - a neighbour that starts late gets the body once it runs and has heard of it: owned by
 //!   exactly one cluster at every tick meanwhile, no jump at the hand-off, and a write from
 //!   middle's game code reaches it at its new owner;
+//! - a body is handed only to a neighbour that models it (its extent reaches the neighbour's
+//!   region and spread on the world map): game code's hand-off of a body far from the
+//!   neighbour is refused with the reason, one near it goes;
 //! - a hand-off a live neighbour does not take (it does not list the giver as a neighbour, so
 //!   never reads its frames) comes back within `neighbour_timeout_ticks`, counted, and the
 //!   body moves on as the giver's;
@@ -22,6 +25,7 @@ seam_tests::backend_tests!(
     [
         a_neighbour_never_started_is_never_handed_a_body,
         a_late_neighbour_gets_the_body_once_it_runs,
+        a_body_is_handed_only_to_a_neighbour_that_models_it,
         a_handoff_the_neighbour_does_not_take_comes_back,
         every_body_has_one_owner_at_every_tick_in_lockstep,
         every_body_has_one_owner_at_every_tick_free_running
@@ -81,6 +85,55 @@ fn a_neighbour_never_started_is_never_handed_a_body(ctx: &TestContext) {
     let role = middle.sim().info(ball.id).expect("info").role;
     assert_eq!(role, BodyRole::Dynamic, "and simulates it");
     assert_eq!(middle.stats().handoffs_out, 0, "{:?}", middle.stats());
+}
+
+fn a_body_is_handed_only_to_a_neighbour_that_models_it(ctx: &TestContext) {
+    let mut configs = row(&ctx.url(), mapped);
+    for config in &mut configs {
+        config.authority = AuthorityMode::Scripted;
+        for mapped in &mut config.world {
+            mapped.spread = 4.0;
+        }
+    }
+    let mut clusters: Vec<Cluster> = configs
+        .iter()
+        .map(|c| Cluster::new(c.clone()).expect("cluster"))
+        .collect();
+    let me = clusters[1].id();
+    let (far, near) = (ball_at(0.0, me), ball_at(6.0, me));
+    for ball in [&far, &near] {
+        clusters[1]
+            .spawn_owned(ball, BodyRole::Dynamic)
+            .expect("spawn");
+    }
+    for _ in 0..5 {
+        for cluster in &mut clusters {
+            cluster.tick(|_, _| {}).expect("tick");
+        }
+    }
+    let east = clusters[2].id();
+    assert!(
+        clusters[2].sim().state(near.id).is_some() && clusters[2].sim().state(far.id).is_none(),
+        "east models the ball 4 m from its region and not the one 10 m off"
+    );
+    let refused = clusters[1].transfer_authority(far.id, east);
+    assert!(
+        matches!(&refused, Err(ClusterError::Transfer { reason, .. }) if reason.contains("does not model it")),
+        "a body east does not model is not handed to it: {refused:?}"
+    );
+    clusters[1]
+        .transfer_authority(near.id, east)
+        .expect("one east models goes");
+    for _ in 0..3 {
+        for cluster in &mut clusters {
+            cluster.tick(|_, _| {}).expect("tick");
+        }
+        if ctx.url().starts_with("redis") {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    }
+    assert!(clusters[2].owns(near.id), "east took the ball it modelled");
+    assert!(clusters[1].owns(far.id), "middle kept the other");
 }
 
 fn a_late_neighbour_gets_the_body_once_it_runs(ctx: &TestContext) {
@@ -173,7 +226,9 @@ fn a_handoff_the_neighbour_does_not_take_comes_back(ctx: &TestContext) {
     let timeout = configs[0].neighbour_timeout_ticks;
     let mut west = Cluster::new(configs[0].clone()).expect("west");
     let mut east = Cluster::new(configs[2].clone()).expect("east");
-    let ball = ball_at(-20.0, west.id()).velocity([3.0, 0.0, 0.0]);
+    // West's ball, flown out near east's region (within its spread: east would model it, had
+    // it read west's frames).
+    let ball = ball_at(8.0, west.id()).velocity([3.0, 0.0, 0.0]);
     west.spawn_owned(&ball, BodyRole::Dynamic).expect("spawn");
     let tick_both = |west: &mut Cluster, east: &mut Cluster| {
         east.tick(|_, _| {}).expect("east ticks");

@@ -333,6 +333,27 @@ fn spawn_entities(
     Ok((entities, owned_at_start))
 }
 
+/// The scene's entities by name (`name`, or `name#i` for the copies of a grid), for the
+/// cluster's logs; a name the rule refuses (`seam_proxy::name_ok`: over 64 characters, say)
+/// is left out, and the entity shown by its id.
+fn scene_entity_names(scene: &Scene, ids: &SceneIds) -> BTreeMap<EntityId, String> {
+    let mut names = BTreeMap::new();
+    for entity in &scene.entities {
+        let copies = entity.copies();
+        for i in 0..copies {
+            let name = if copies > 1 {
+                format!("{}#{i}", entity.name)
+            } else {
+                entity.name.clone()
+            };
+            if seam_proxy::name_ok(&name) {
+                names.insert(ids.entity(&entity.name, i), name);
+            }
+        }
+    }
+    names
+}
+
 impl Pod {
     /// Starts `part` of `scene`: opens the transport, subscribes to the neighbours and spawns
     /// the entities it owns.
@@ -398,6 +419,7 @@ impl Pod {
             .iter()
             .map(|(id, n)| (*id, n.clone()))
             .collect();
+        config.entity_names = scene_entity_names(scene, &ids);
         apply_settings(&mut config, scene, settings);
         let mut cluster = Cluster::new(config)?;
         // A pod reads its cluster's events after every tick: op timings, hand-offs, ledgers.

@@ -53,16 +53,19 @@ mod tests {
         let ids = [1, 2, 3].map(ClusterId::from_u128);
         let world = vec![
             WorldCluster {
+                spread: 0.0,
                 id: ids[0],
                 region: region(-30.0, -10.0),
                 neighbours: vec![ids[1]],
             },
             WorldCluster {
+                spread: 0.0,
                 id: ids[1],
                 region: region(-10.0, 10.0),
                 neighbours: vec![ids[0], ids[2]],
             },
             WorldCluster {
+                spread: 0.0,
                 id: ids[2],
                 region: region(10.0, 30.0),
                 neighbours: vec![ids[1]],

@@ -1,11 +1,12 @@
 //! What game code adds to a cluster's world and changes in it: bodies it owns, scenery, the
-//! shapes of the world's catalog, a body's role.
+//! shapes of the world's catalog, a body's role and owner, names for logs.
 
 use seam_sim::wire::{ClusterId, EntityId, EntityState, Shape};
 use seam_sim::{BodyRole, ShapeDef, SimError};
 
 use super::Cluster;
 use crate::error::ClusterError;
+use crate::handoff;
 
 impl Cluster {
     /// Adds an entity this cluster owns, with `role` (dynamic for what it simulates; Fixed or
@@ -59,6 +60,45 @@ impl Cluster {
             return Err(SimError::NotOwned { entity, owner }.into());
         }
         self.sim.set_role(entity, role)?;
+        Ok(())
+    }
+
+    /// Names `entity` in this cluster's logs and reports (see
+    /// [`ClusterConfig::entity_names`](crate::ClusterConfig::entity_names)): a body the game
+    /// spawns, or a neighbour's it cares about. A name breaking the rule (1 to 64 printable
+    /// characters) is refused.
+    pub fn name_entity(&mut self, entity: EntityId, name: &str) -> Result<(), ClusterError> {
+        crate::checks::entity_name(entity, name)?;
+        self.config.entity_names.insert(entity, name.to_owned());
+        Ok(())
+    }
+
+    /// Hands an entity this cluster owns to a neighbour. It happens at the next replication
+    /// frame: that frame carries the entity's final pose and velocity with the new owner, this
+    /// cluster turns its body into a proxy, and the new owner turns its proxy into the body.
+    ///
+    /// Refused ([`ClusterError::Transfer`], with the reason) for a neighbour not heard from,
+    /// taken for dead or gone, one that cannot model the entity (a catalog shape it lacks) or
+    /// lately did not take it, and, where the world map holds the neighbour, one whose region
+    /// grown by its spread the entity's extent does not reach: it holds no proxy to take over.
+    pub fn transfer_authority(
+        &mut self,
+        entity: EntityId,
+        to: ClusterId,
+    ) -> Result<(), ClusterError> {
+        handoff::check(&self.sim, &self.config, &self.neighbours, entity, to)?;
+        if self
+            .handoffs
+            .declined_by(entity, to, self.sim.tick(), &self.config)
+        {
+            return Err(ClusterError::Transfer {
+                entity,
+                to,
+                reason: "the neighbour cannot model it (its shape is not registered there) or \
+                         did not take it lately",
+            });
+        }
+        self.handoffs.queue(entity, to);
         Ok(())
     }
 }

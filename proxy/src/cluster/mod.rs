@@ -5,7 +5,7 @@
 //!
 //! - here: [`Cluster`], its parts, and what game code calls between ticks.
 //! - `bodies` — what game code adds to the world and changes in it: owned bodies, scenery,
-//!   catalog shapes, roles.
+//!   catalog shapes, roles, owners (`transfer_authority`), names.
 //! - `tick` — the ways to run a tick (free-running, lock-step in one call or two halves) and
 //!   `run_until_exchange` and `finish_tick`, the list of phases.
 //! - `exchange` — the exchange before the step: this tick's ops and own writes out, the
@@ -13,6 +13,7 @@
 //! - `receive` — frames taken off the transport into the inbox.
 //! - `publish` — this tick's frames out: replication (with the policy's hand-offs) and one
 //!   physics-events frame per neighbour.
+//! - `warnings` — what is logged of what is counted: refused frames and dropped ops.
 
 use seam_sim::wire::{ClusterId, EntityId, PhysicsEventsFrame, Stage};
 use seam_sim::{ClusterSim, SimConfig};
@@ -26,7 +27,7 @@ use crate::contacts::{Predictions, Reports, SeamImpulses};
 use crate::delivery::{Numbers, Receipts, Retry};
 use crate::error::ClusterError;
 use crate::events::{Carried, ClusterStats, Events, LedgerEntry, LedgerEvent, Name, TickEvent};
-use crate::handoff::{self, Handoffs};
+use crate::handoff::Handoffs;
 use crate::inbox::Inbox;
 use crate::neighbours::{Custody, NeighbourStatus, Neighbours};
 use crate::replication::{CustomProxy, Interest, Keys, Proxies, Publisher};
@@ -38,6 +39,7 @@ mod exchange;
 mod publish;
 mod receive;
 mod tick;
+mod warnings;
 
 /// How long before its last tick a pod stops the policy's hand-offs (see
 /// [`Cluster::stop_policy_handoffs`]), seconds: pods on one schedule are a few ticks apart,
@@ -95,6 +97,8 @@ pub struct Cluster {
     free_running: bool,
     /// This pod's incarnation (see [`Cluster::incarnation`]).
     incarnation: u64,
+    /// The routed ops dropped as of the last warning about them (see `warnings`).
+    ops_dropped_logged: u64,
     /// Set by [`Cluster::leave`]: every events frame from then on says so.
     leaving: bool,
     /// A tick has run up to the exchange and not finished yet (see
@@ -160,6 +164,7 @@ impl Cluster {
             handoffs: Handoffs::default(),
             publisher: Publisher::new(&config, incarnation),
             incarnation,
+            ops_dropped_logged: 0,
             interest: Interest::new(config.region, config.spread),
             proxies: Proxies::default(),
             numbers: Numbers::from_clock(),
@@ -368,29 +373,5 @@ impl Cluster {
         self.transport
             .keep_claims()
             .map_err(|source| ClusterError::AlreadyRunning { cluster, source })
-    }
-
-    /// Hands an entity this cluster owns to a neighbour. It happens at the next replication
-    /// frame: that frame carries the entity's final pose and velocity with the new owner, this
-    /// cluster turns its body into a proxy, and the new owner turns its proxy into the body.
-    pub fn transfer_authority(
-        &mut self,
-        entity: EntityId,
-        to: ClusterId,
-    ) -> Result<(), ClusterError> {
-        handoff::check(&self.sim, &self.config, &self.neighbours, entity, to)?;
-        if self
-            .handoffs
-            .declined_by(entity, to, self.sim.tick(), &self.config)
-        {
-            return Err(ClusterError::Transfer {
-                entity,
-                to,
-                reason: "the neighbour cannot model it (its shape is not registered there) or \
-                         did not take it lately",
-            });
-        }
-        self.handoffs.queue(entity, to);
-        Ok(())
     }
 }

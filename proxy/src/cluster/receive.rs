@@ -32,25 +32,6 @@ impl Cluster {
         }
     }
 
-    /// Counts a refused frame, and logs it at the 1st, 10th, 100th … refusal for its reason,
-    /// naming the sender where the frame names one (a pod still running under a cluster's id
-    /// elsewhere, a neighbour from another run, one whose clock runs ahead).
-    fn refused(&mut self, reason: FrameRefusal, from: Option<seam_sim::wire::ClusterId>) {
-        self.events
-            .emit(ClusterEvent::FrameRefused { reason, from });
-        let count = self.stats().frames_refused_for(reason);
-        if 10u64.pow(count.max(1).ilog10()) == count {
-            let sender = from.map_or_else(|| "unreadable".to_owned(), |id| self.config.label(id));
-            tracing::warn!(
-                cluster = %self.config.label(self.config.cluster_id),
-                sender,
-                ?reason,
-                refused_so_far = count,
-                "frame refused"
-            );
-        }
-    }
-
     /// Files a frame in the inbox; returns its sender, tick and kind, or why it was refused.
     fn file(
         &mut self,

@@ -182,6 +182,7 @@ impl Cluster {
         self.step();
         self.report();
         self.publish()?;
+        self.warn_dropped_ops();
         self.events.emit(ClusterEvent::Ticked);
         Ok(())
     }
@@ -266,7 +267,8 @@ impl Cluster {
             );
         }
         self.neighbours.hear_leaving(events);
-        self.handoffs.hear_unmodelled(events, self.sim.tick());
+        self.handoffs
+            .hear_unmodelled(events, self.sim.tick(), &self.config);
     }
 
     /// This world's contacts of the last step and the neighbours' reports, each surfaced once.

@@ -12,7 +12,7 @@
 //! ([`take_back`]); one a neighbour neither takes nor dies before within
 //! `neighbour_timeout_ticks` comes back too ([`Handoffs::take_overdue`]), at the next epoch, so
 //! the claim it comes back with outranks a late take there. Hand-offs go only to a neighbour
-//! heard from and not gone ([`check`]).
+//! heard from and not gone that models the entity by the world map ([`check`]).
 //!
 //! Ownership has no gap at a hand-off: the giver stepped the body as its owner in the tick
 //! whose frame hands it over, so it counts as the giver's until that tick ends
@@ -26,6 +26,7 @@ use crate::config::{ClusterConfig, ProxyMode};
 use crate::error::ClusterError;
 use crate::events::{ClusterEvent, Events};
 use crate::neighbours::{NeighbourStatus, Neighbours};
+use crate::replication::extent;
 
 /// Ticks a hand-off this cluster made is remembered: long after any repeat of an older one
 /// can still be in flight.
@@ -73,7 +74,7 @@ pub(crate) fn return_overdue(
         }
         tracing::warn!(
             cluster = %config.label(me),
-            entity = %handed.id,
+            entity = %config.entity_label(handed.id),
             neighbour = %config.label(to),
             handed_at = handed.tick,
             taken_back = back,
@@ -107,8 +108,37 @@ pub(crate) fn check(
         Some(NeighbourStatus::NotHeard) => Err(refuse(
             "the neighbour has not been heard from (not running yet?)",
         )),
+        _ if !models(sim, config, entity, to) => Err(refuse(
+            "the neighbour does not model it: its extent is beyond the neighbour's region and \
+             spread on the world map, so no proxy of it is there to take it over",
+        )),
         _ => Ok(()),
     }
+}
+
+/// Whether `to` models `entity` by the world map: the entity's extent (as the interest rule
+/// sweeps it) overlaps `to`'s region grown by its spread (its map entry's, or where that is 0,
+/// not known, this cluster's own), so `to` holds a proxy of it from the frames it has read and
+/// a hand-off turns that proxy into the body (the rule's other reasons to model, `to`'s own
+/// bodies nearby and its watches, are not known here). Without `to` on the map, assumed.
+fn models(sim: &ClusterSim, config: &ClusterConfig, entity: EntityId, to: ClusterId) -> bool {
+    let Some(mapped) = config.world.iter().find(|c| c.id == to) else {
+        return true;
+    };
+    let spread = if mapped.spread > 0.0 {
+        mapped.spread
+    } else {
+        config.spread.max(0.0)
+    };
+    sim.state(entity).is_some_and(|state| {
+        extent(&state, config.sweep_s()).overlaps(&mapped.region.grown(spread))
+    })
+}
+
+/// How long a declined hand-off is not asked again: four neighbour timeouts, at least 240
+/// ticks.
+fn decline_span(config: &ClusterConfig) -> u64 {
+    4 * config.neighbour_timeout_ticks.max(60)
 }
 
 /// This cluster's hand-offs: queued, in transit, released, and held early.
@@ -156,12 +186,21 @@ impl Handoffs {
 
     /// Takes in the neighbours' word, in `frames`, of this cluster's entities they cannot
     /// model: none is handed to them (by the policy, or by game code) for a while from `tick`.
-    pub(crate) fn hear_unmodelled(&mut self, frames: &[(PhysicsEventsFrame, u64)], tick: u64) {
+    /// What was declined longer ago than that is forgotten.
+    pub(crate) fn hear_unmodelled(
+        &mut self,
+        frames: &[(PhysicsEventsFrame, u64)],
+        tick: u64,
+        config: &ClusterConfig,
+    ) {
         for (frame, _) in frames {
             for &entity in &frame.unmodelled {
                 self.refused_by.insert(entity, (frame.from, tick));
             }
         }
+        let span = decline_span(config);
+        self.refused_by
+            .retain(|_, &mut (_, at)| tick.saturating_sub(at) < span);
     }
 
     /// Whether a hand-off of `entity` to `to` came back untaken, or `to` said it cannot
@@ -174,7 +213,7 @@ impl Handoffs {
         tick: u64,
         config: &ClusterConfig,
     ) -> bool {
-        let span = 4 * config.neighbour_timeout_ticks.max(60);
+        let span = decline_span(config);
         self.refused_by
             .get(&entity)
             .is_some_and(|&(by, at)| by == to && tick.saturating_sub(at) < span)

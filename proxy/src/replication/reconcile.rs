@@ -86,7 +86,7 @@ impl Reconcile<'_> {
                 tracing::debug!(
                     cluster = %self.config.label(self.config.cluster_id),
                     from = %self.config.label(from),
-                    entity = %state.id,
+                    entity = %self.config.entity_label(state.id),
                     claimed_owner = %self.config.label(state.cluster_id),
                     known = ?known,
                     epoch = state.epoch,
@@ -232,7 +232,7 @@ impl Reconcile<'_> {
         self.yielded.push(state.id);
         tracing::warn!(
             cluster = %self.config.label(self.config.cluster_id),
-            entity = %state.id,
+            entity = %self.config.entity_label(state.id),
             to = %self.config.label(from),
             "entity claimed back by the cluster that handed it here: this copy is its proxy now"
         );
