@@ -149,7 +149,10 @@
 //! carry the entity's final pose and velocity with the new owner's id; the old owner turns its
 //! body into a proxy right after publishing; the new owner, reading that frame, turns its proxy
 //! into the dynamic body in place with that pose and velocity (or spawns it, if it had no proxy);
-//! third clusters route writes to the new owner from then on. In lock-step the old owner's last
+//! third clusters route writes to the new owner from then on. A hand-off goes only to a
+//! neighbour heard from and not gone that models the entity (its extent reaches the
+//! neighbour's region and spread on the world map), so there is a proxy to take over; the
+//! rest is refused with the reason. In lock-step the old owner's last
 //! dynamic step and the new owner's first are consecutive: at every step exactly one cluster
 //! simulates the entity.
 //!
@@ -170,7 +173,8 @@
 //! refused as undecodable, of another format version, from a sender that is not a neighbour or
 //! not the cluster its channel names, as a replay (a frame of a live sender tagged no later than
 //! one of its frames of the same kind already taken: a sender publishes one per tick, in order;
-//! the first is kept), or as tagged further ahead than the sender could be (below). States from
+//! the first is kept), as tagged further ahead than the sender could be (below), or as from a
+//! pod its cluster has replaced since (its incarnation, `frames_stale`). States from
 //! a cluster that does not own their entity, with NaN, a coordinate or velocity beyond
 //! `max_magnitude`, a rotation that is not one or a shape with no size are rejected and
 //! counted; so are routed ops with NaN, beyond `max_magnitude`, too old, or repeated (an op
