@@ -22,6 +22,7 @@
 //!   pod whose lease lapsed and was taken over stopped.
 //! - `tests/safe_handoffs.rs` — no body handed to a neighbour never heard, one not taken comes
 //!   back, one owner for every body at every tick.
+//! - `tests/logs.rs` — a returned hand-off, a dropped op and a refused frame logged by name.
 //! - `tests/pushes.rs` — a routed push on a body in flight lands as in one world.
 //! - `tests/delivery.rs` — no routed write or contact report lost or applied twice.
 //! - `tests/garbage.rs` — untrusted input on a live cluster's channels, counted by kind.

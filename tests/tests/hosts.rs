@@ -107,7 +107,9 @@ fn crossfire_on_two_hosts_20_ms_apart_loses_nothing() {
 }
 
 fn crossfire_on_two_hosts(delay: Delay) {
-    let Some(mut plan) = plan("crossfire.toml", 2, 120.0, 360) else {
+    // crossfire with its runner's hand-off going (`variants/crossfire-handoff`): east then owns
+    // a body on west's ground, so contact reports cross hosts too.
+    let Some(mut plan) = plan("variants/crossfire-handoff.toml", 2, 120.0, 360) else {
         return;
     };
     plan.hosts.delay = delay;

@@ -45,23 +45,9 @@ fn browser_here() -> bool {
     }
 }
 
-/// crossfire with its runner starting 7 m nearer the seam (friction stops it within east's
-/// spread, so east models it and the scene's hand-off of it at tick 300 goes; from where the
-/// bundled scene starts it, the hand-off is refused), written beside `parts`.
-fn crossfire_with_runner_near(parts: &Path) -> PathBuf {
-    let bundled = std::fs::read_to_string(scene("crossfire")).expect("crossfire");
-    let far = "position = [-10.0, 1.0, 6.0]";
-    assert!(
-        bundled.contains(far),
-        "the runner's start in crossfire.toml moved"
-    );
-    let path = parts.with_file_name("crossfire.toml");
-    std::fs::write(&path, bundled.replace(far, "position = [-3.1, 1.0, 6.0]")).expect("scene");
-    path
-}
-
-/// crossfire (its runner near the seam) as two pods on this test's shared memory, faster than
-/// real time, each pod recording its stream into `parts`.
+/// `variants/crossfire-handoff` (crossfire with its runner near enough the seam for its
+/// scripted hand-off to go) as two pods on this test's shared memory, faster than real time,
+/// each pod recording its stream into `parts`.
 fn crossfire_plan(parts: &Path) -> (TestContext, RunPlan) {
     let ctx = TestContext::new(seam_transport::Backend::Shm).expect("shm is always here");
     let plan = RunPlan {
@@ -70,7 +56,7 @@ fn crossfire_plan(parts: &Path) -> (TestContext, RunPlan) {
         node_command: vec![env!("CARGO_BIN_EXE_seam-test-node").into()],
         start_delay: Duration::from_millis(500),
         record_dir: Some(parts.to_owned()),
-        ..RunPlan::new(crossfire_with_runner_near(parts), ctx.url())
+        ..RunPlan::new(scene("variants/crossfire-handoff"), ctx.url())
     };
     (ctx, plan)
 }
