@@ -263,19 +263,22 @@ impl Neighbours {
     }
 
     /// Sorts a frame of `neighbour` by the incarnation of the pod that sent it: older than the
-    /// newest heard is stale; newer starts the neighbour's ticks afresh.
+    /// newest heard is stale while that pod lives; newer starts the neighbour's ticks afresh.
+    /// Once the neighbour is taken for dead (or has left), any other incarnation is its new
+    /// pod: one whose clock ran behind its predecessor's (another host's, a Redis server's set
+    /// back) is heard after the neighbour timeout rather than never.
     pub(crate) fn incarnation(&mut self, neighbour: ClusterId, incarnation: u64) -> Incarnation {
         let Some(peer) = self.peers.get_mut(&neighbour) else {
             return Incarnation::Current;
         };
         match peer.incarnation {
-            Some(newest) if incarnation < newest => Incarnation::Stale,
-            Some(newest) if incarnation > newest => {
+            Some(newest) if incarnation == newest => Incarnation::Current,
+            Some(newest) if incarnation < newest && !peer.status.is_gone() => Incarnation::Stale,
+            Some(_) => {
                 peer.incarnation = Some(incarnation);
                 peer.newest = [None; FrameKind::COUNT];
                 Incarnation::Restarted
             }
-            Some(_) => Incarnation::Current,
             None => {
                 peer.incarnation = Some(incarnation);
                 Incarnation::Current
@@ -327,5 +330,43 @@ impl Neighbours {
                             .saturating_add(window)
                     })
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn one_neighbour() -> (Neighbours, ClusterId) {
+        let neighbour = ClusterId::random();
+        let config = ClusterConfig::new(ClusterId::random(), vec![neighbour], "shm");
+        (Neighbours::new(&config), neighbour)
+    }
+
+    #[test]
+    fn an_older_pod_is_stale_while_the_newer_lives_and_a_new_one_restarts_the_count() {
+        let (mut n, a) = one_neighbour();
+        assert_eq!(n.incarnation(a, 100), Incarnation::Current);
+        assert_eq!(n.incarnation(a, 100), Incarnation::Current);
+        assert_eq!(n.incarnation(a, 99), Incarnation::Stale);
+        n.heard(a, 50, FrameKind::Replication, 1, 0);
+        assert_eq!(n.incarnation(a, 200), Incarnation::Restarted);
+        assert!(
+            !n.replayed(a, 3, FrameKind::Replication),
+            "its ticks count afresh"
+        );
+        assert_eq!(n.incarnation(a, 100), Incarnation::Stale);
+        assert_eq!(n.incarnation(ClusterId::random(), 1), Incarnation::Current);
+    }
+
+    #[test]
+    fn once_taken_for_dead_a_pod_with_a_clock_behind_is_heard() {
+        let (mut n, a) = one_neighbour();
+        assert_eq!(n.incarnation(a, 100), Incarnation::Current);
+        n.peers.get_mut(&a).expect("a peer").status = NeighbourStatus::Dead;
+        assert_eq!(n.incarnation(a, 40), Incarnation::Restarted);
+        n.peers.get_mut(&a).expect("a peer").status = NeighbourStatus::Alive;
+        assert_eq!(n.incarnation(a, 40), Incarnation::Current);
+        assert_eq!(n.incarnation(a, 39), Incarnation::Stale);
     }
 }
