@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use rustix::process::{Pid, Signal, kill_process};
 use seam_proxy::{Cluster, ClusterConfig, ClusterError, NeighbourStatus, monotonic_ns};
 use seam_sim::BodyRole;
-use seam_sim::wire::{ClusterId, EntityState, ReplicationView};
+use seam_sim::wire::{ClusterId, ReplicationView};
 use seam_tests::{TestContext, finish_pod, scene_path, start_pod};
 use seam_transport::ClaimError;
 
@@ -167,6 +167,14 @@ fn x_of(cluster: &Cluster, entity: seam_sim::wire::EntityId) -> Option<f32> {
     cluster.sim().state(entity).map(|s| s.position[0])
 }
 
+/// `n` free-running ticks of west's pod, then east's, each round.
+fn tick_pair(west: &mut Cluster, east: &mut Cluster, n: usize) {
+    for _ in 0..n {
+        west.tick(|_, _| {}).expect("west ticks");
+        east.tick(|_, _| {}).expect("east ticks");
+    }
+}
+
 fn frames_of_a_replaced_pod_are_refused_by_its_incarnation(ctx: &TestContext) {
     let url = url(ctx);
     let (west, east) = (ClusterId::random(), ClusterId::random());
@@ -182,10 +190,7 @@ fn frames_of_a_replaced_pod_are_refused_by_its_incarnation(ctx: &TestContext) {
     let mut old = Cluster::new(config(west, east)).expect("west's first pod");
     let ball = seam_tests::ball_at(-3.0, west);
     old.spawn_owned(&ball, BodyRole::Dynamic).expect("spawn");
-    for _ in 0..40 {
-        old.tick(|_, _| {}).expect("west ticks");
-        east_pod.tick(|_, _| {}).expect("east ticks");
-    }
+    tick_pair(&mut old, &mut east_pod, 40);
     assert_eq!(
         x_of(&east_pod, ball.id),
         Some(-3.0),
@@ -206,12 +211,9 @@ fn frames_of_a_replaced_pod_are_refused_by_its_incarnation(ctx: &TestContext) {
         "a later pod has a later incarnation: {} after {old_incarnation}",
         new.incarnation()
     );
-    let moved = EntityState { ..ball }.at([-6.0, 0.0, 0.0]);
+    let moved = ball.at([-6.0, 0.0, 0.0]);
     new.spawn_owned(&moved, BodyRole::Dynamic).expect("spawn");
-    for _ in 0..5 {
-        new.tick(|_, _| {}).expect("west ticks");
-        east_pod.tick(|_, _| {}).expect("east ticks");
-    }
+    tick_pair(&mut new, &mut east_pod, 5);
     assert_eq!(
         x_of(&east_pod, ball.id),
         Some(-6.0),
@@ -232,10 +234,7 @@ fn frames_of_a_replaced_pod_are_refused_by_its_incarnation(ctx: &TestContext) {
             .expect("publish");
     }
     std::thread::sleep(Duration::from_millis(100));
-    for _ in 0..5 {
-        new.tick(|_, _| {}).expect("west ticks");
-        east_pod.tick(|_, _| {}).expect("east ticks");
-    }
+    tick_pair(&mut new, &mut east_pod, 5);
     let stats = east_pod.stats();
     assert_eq!(
         stats.frames_stale,

@@ -107,9 +107,7 @@ fn a_body_is_handed_only_to_a_neighbour_that_models_it(ctx: &TestContext) {
             .expect("spawn");
     }
     for _ in 0..5 {
-        for cluster in &mut clusters {
-            cluster.tick(|_, _| {}).expect("tick");
-        }
+        tick_each(&mut clusters.iter_mut().collect::<Vec<_>>());
     }
     let east = clusters[2].id();
     assert!(
@@ -125,12 +123,7 @@ fn a_body_is_handed_only_to_a_neighbour_that_models_it(ctx: &TestContext) {
         .transfer_authority(near.id, east)
         .expect("one east models goes");
     for _ in 0..3 {
-        for cluster in &mut clusters {
-            cluster.tick(|_, _| {}).expect("tick");
-        }
-        if ctx.url().starts_with("redis") {
-            std::thread::sleep(std::time::Duration::from_millis(20));
-        }
+        tick_each(&mut clusters.iter_mut().collect::<Vec<_>>());
     }
     assert!(clusters[2].owns(near.id), "east took the ball it modelled");
     assert!(clusters[1].owns(far.id), "middle kept the other");
@@ -155,12 +148,7 @@ fn a_late_neighbour_gets_the_body_once_it_runs(ctx: &TestContext) {
     let mut taken_at = None;
     let mut last_x = middle.sim().state(ball.id).expect("state").position[0];
     for tick in 0..15 {
-        west.tick(|_, _| {}).expect("west ticks");
-        middle.tick(|_, _| {}).expect("middle ticks");
-        east.tick(|_, _| {}).expect("east ticks");
-        if ctx.url().starts_with("redis") {
-            std::thread::sleep(std::time::Duration::from_millis(20));
-        }
+        tick_each(&mut [&mut west, &mut middle, &mut east]);
         let owners = [&west, &middle, &east].map(|c| c.owns(ball.id));
         assert_eq!(
             owners.iter().filter(|&&o| o).count(),
@@ -195,12 +183,7 @@ fn a_late_neighbour_gets_the_body_once_it_runs(ctx: &TestContext) {
         })
         .expect("middle ticks");
     for _ in 0..6 {
-        east.tick(|_, _| {}).expect("east ticks");
-        west.tick(|_, _| {}).expect("west ticks");
-        middle.tick(|_, _| {}).expect("middle ticks");
-        if ctx.url().starts_with("redis") {
-            std::thread::sleep(std::time::Duration::from_millis(20));
-        }
+        tick_each(&mut [&mut east, &mut west, &mut middle]);
     }
     let after = east.sim().state(ball.id).expect("state").linvel[1];
     assert!(
@@ -357,6 +340,20 @@ fn every_body_has_one_owner_at_every_tick_free_running(ctx: &TestContext) {
         handed += one_owner_each(&clusters, &balls, &mut last, tick);
     }
     assert!(handed >= 10, "the balls changed owner {handed} times");
+}
+
+/// One free-running tick of each of `clusters`, in the order given; through a server, then a
+/// moment for the frames to arrive.
+fn tick_each(clusters: &mut [&mut Cluster]) {
+    for cluster in clusters.iter_mut() {
+        cluster.tick(|_, _| {}).expect("tick");
+    }
+    if clusters
+        .first()
+        .is_some_and(|c| c.config().transport.starts_with("redis"))
+    {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
 }
 
 /// Whether the clusters talk through a server (frames take a little while to arrive).
