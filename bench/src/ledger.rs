@@ -429,6 +429,8 @@ mod tests {
                 entry(12, Op, Answered),
                 entry(13, Op, Sent),
                 entry(13, Op, Answered),
+                entry(14, Contact, Sent),
+                entry(14, Contact, Answered),
             ],
             // A line cut short by a kill: not read.
             "7 applied op 0000",
@@ -456,12 +458,14 @@ mod tests {
                 entry(2, Op, Applied),
                 entry(11, Op, Applied),
                 entry(13, Op, Applied),
+                entry(14, Contact, Applied),
             ],
             "",
         );
         let forwarder = write(&dir, "north-0", &[entry(9, Op, Sent)], "");
-        // An adopter of east's bodies applied 11, which east's next life applied too and ticked
-        // on after (east was stalled: the adopter's copy was dropped), and 12, which east's
+        // An adopter of east's bodies applied 11 and surfaced contact 14, which east's next
+        // life applied too and ticked on after (east was stalled: the adopter's copy was
+        // dropped), and 12, which east's
         // first life applied before it was killed (the adopter's copy lives on: applied
         // twice).
         let adopter = write(
@@ -473,6 +477,10 @@ mod tests {
                 LedgerEntry {
                     event: Stale,
                     ..applied_adopted(13, "east")
+                },
+                LedgerEntry {
+                    carried: Contact,
+                    ..applied_adopted(14, "east")
                 },
             ],
             "",
@@ -527,9 +535,12 @@ mod tests {
                 + ops.lost
         );
         assert!(!ops.holds());
-        // Contact 7 surfaced once; 8 lost.
-        assert_eq!(followed.contacts.sent, 2);
-        assert_eq!(followed.contacts.ended_once, 1);
+        // Contact 7 surfaced once; 8 lost; 14 surfaced by east, which ticked on, and by the
+        // adopter of the body east was stalled with (a copy dropped since).
+        assert_eq!(followed.contacts.sent, 3);
+        assert_eq!(followed.contacts.ended_once, 2);
+        assert_eq!(followed.contacts.applied_to_dropped_copy, 1);
+        assert_eq!(followed.contacts.applied_twice, 0);
         assert_eq!(followed.contacts.lost, 1);
         assert_eq!(followed.unreadable_lines, 0);
         std::fs::remove_dir_all(&dir).expect("the test's ledger files");

@@ -277,6 +277,7 @@ impl Cluster {
             events,
             &mut self.sim,
             &self.config,
+            &self.custody,
             &mut self.receipts,
             &mut self.events,
         );

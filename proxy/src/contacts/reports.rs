@@ -11,7 +11,7 @@ use crate::delivery::{
     Courier, Numbers, Outbound, Receipts, Resend, Retry, Route, Unanswered, Verdict,
 };
 use crate::events::{ClusterEvent, ContactGiveUp, Events, Name};
-use crate::neighbours::Neighbours;
+use crate::neighbours::{Custody, Neighbours};
 
 /// This cluster's contact reports on their way, and the contacts surfaced lately.
 #[derive(Default)]
@@ -76,12 +76,14 @@ impl Reports {
     /// then the neighbours' reports in `frames`. Each report's number is surfaced once; a
     /// report older than `max_op_age_ticks` is dropped. Every report is answered. Only local
     /// contacts with a neighbour's entity are remembered to merge: a report names one, and
-    /// the rest (among this cluster's bodies, or with scenery) have no twin to meet.
+    /// the rest (among this cluster's bodies, or with scenery) have no twin to meet. A report
+    /// on a body held here for a neighbour taken for dead (`custody`) says so when taken.
     pub(crate) fn surface(
         &mut self,
         frames: &[(PhysicsEventsFrame, u64)],
         sim: &mut ClusterSim,
         config: &ClusterConfig,
+        custody: &Custody,
         receipts: &mut Receipts,
         events: &mut Events,
     ) {
@@ -111,7 +113,8 @@ impl Reports {
         let mut reported = Vec::new();
         for (frame, _) in frames {
             for c in &frame.contacts {
-                if take_report(frame.from, c, max_age, receipts, events) {
+                let adopted_from = custody.adopted_from(c.a).or(custody.adopted_from(c.b));
+                if take_report(frame.from, c, max_age, adopted_from, receipts, events) {
                     let event = ContactEvent {
                         a: c.a,
                         b: c.b,
@@ -205,11 +208,12 @@ impl Reports {
 }
 
 /// Answers report `c` from `from` and closes its name; returns whether it is to surface
-/// (new, and young enough).
+/// (new, and young enough). `adopted_from`: the cluster a body of the report is held for here.
 fn take_report(
     from: ClusterId,
     c: &ContactReport,
     max_age: u64,
+    adopted_from: Option<ClusterId>,
     receipts: &mut Receipts,
     events: &mut Events,
 ) -> bool {
@@ -232,7 +236,7 @@ fn take_report(
         return false;
     }
     // Surfaced by the caller, or merged with this world's own copy.
-    events.emit(ClusterEvent::ContactDelivered { name });
+    events.emit(ClusterEvent::ContactDelivered { name, adopted_from });
     true
 }
 

@@ -23,9 +23,10 @@
 //! - [`LedgerEvent::Unanswered`]: still in a sender's hands when it stopped
 //!   (`crate::Cluster::unanswered_names`, written by the harness at the end).
 //!
-//! An op applied to a body this cluster adopted from a neighbour taken for dead says so
-//! ([`LedgerEntry::adopted_from`]): when that neighbour was only stalled, it keeps its own copy
-//! of the body and applies the op there too (from its buffer, on waking), and the adopter's
+//! An op applied, or a contact report taken, on a body this cluster adopted from a neighbour
+//! taken for dead says so ([`LedgerEntry::adopted_from`]): when that neighbour was only
+//! stalled, it keeps its own copy of the body and applies the op (or surfaces the report)
+//! there too (from its buffer, on waking), and the adopter's
 //! copy stops when the neighbour is heard again — two applications, one to a copy that is
 //! dropped. Only an application to a copy that lives on counts.
 
@@ -122,7 +123,8 @@ pub struct LedgerEntry {
     /// What happened.
     pub event: LedgerEvent,
     /// For an op applied here, or dropped as stale by its sender on finding its target its own
-    /// now: the cluster the target was adopted from, if this cluster holds it as an adopter
+    /// now, or a contact report taken here on a body held for another: the cluster the body
+    /// was adopted from, if this cluster holds it as an adopter
     /// (the owner taken for dead).
     pub adopted_from: Option<ClusterId>,
 }
@@ -154,7 +156,9 @@ impl LedgerEntry {
             }
             E::ContactReported { name } => (name, Carried::Contact, LedgerEvent::Sent, None),
             E::ContactAnswered { name } => (name, Carried::Contact, LedgerEvent::Answered, None),
-            E::ContactDelivered { name } => (name, Carried::Contact, LedgerEvent::Applied, None),
+            E::ContactDelivered { name, adopted_from } => {
+                (name, Carried::Contact, LedgerEvent::Applied, adopted_from)
+            }
             E::ContactStale { name } => (name, Carried::Contact, LedgerEvent::Stale, None),
             E::ContactGivenUp { name, .. } => (name, Carried::Contact, LedgerEvent::GivenUp, None),
             _ => return None,

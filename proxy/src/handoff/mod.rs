@@ -7,12 +7,13 @@
 //! mentions the entity, every replication frame repeats the hand-off (in transit), so it
 //! survives a lost frame; what was given is remembered for a while (released), so that a late
 //! repeat of an older hand-off to this cluster is not taken. A hand-off to this cluster whose
-//! state is from the tick this world is about to step to is held until then (early).
+//! state is from a tick this world has not reached (the one it is about to step to, or later
+//! while it catches up after a stall) is held until then (early).
 //! Hand-offs a neighbour never took come back when it leaves or is taken for dead
 //! ([`take_back`]); one a neighbour neither takes nor dies before within
 //! `neighbour_timeout_ticks` comes back too ([`Handoffs::take_overdue`]), at the next epoch, so
 //! the claim it comes back with outranks a late take there. Hand-offs go only to a neighbour
-//! heard from and not gone that models the entity by the world map ([`check`]).
+//! heard from lately and not gone that models the entity by the world map ([`check`]).
 //!
 //! Ownership has no gap at a hand-off: the giver stepped the body as its owner in the tick
 //! whose frame hands it over, so it counts as the giver's until that tick ends
@@ -108,6 +109,9 @@ pub(crate) fn check(
         Some(NeighbourStatus::NotHeard) => Err(refuse(
             "the neighbour has not been heard from (not running yet?)",
         )),
+        _ if !neighbours.answering(to, sim.tick(), crate::clock::monotonic_ns(), config) => Err(
+            refuse("the neighbour has not been heard lately (stalled, or being taken for dead)"),
+        ),
         _ if !models(sim, config, entity, to) => Err(refuse(
             "the neighbour does not model it: its extent is beyond the neighbour's region and \
              spread on the world map, so no proxy of it is there to take it over",
@@ -362,11 +366,12 @@ impl Handoffs {
             .is_some_and(|&(released, _)| epoch <= released)
     }
 
-    /// Holds a hand-off to this cluster whose state is from `tick`, the tick this world is
-    /// about to step to (free-running: the old owner stepped the body and published after this
-    /// cluster's last tick, as between staggered pods), until that tick, so the body is taken
-    /// where it is at the tick it is taken and not stepped twice for one tick. Its proxy stays
-    /// where the last frame put it. Returns whether it was held (not when too many are).
+    /// Holds a hand-off to this cluster whose state is from a tick this world has not reached
+    /// (free-running: the old owner stepped the body and published after this cluster's last
+    /// tick, as between staggered pods, or this cluster is catching up after a stall), until
+    /// that tick, so the body is taken where it is at the tick it is taken and not stepped
+    /// twice for one tick. Its proxy stays where the last frame put it. Returns whether it was
+    /// held (not when too many are).
     pub(crate) fn hold_early(&mut self, state: &EntityState, from: ClusterId) -> bool {
         let room = self.early.len() < MAX_EARLY_HANDOFFS;
         if room {

@@ -208,6 +208,28 @@ impl Neighbours {
         lost
     }
 
+    /// Whether `neighbour` is alive and was heard lately: within a sixth of
+    /// `neighbour_timeout_ticks` (at least two replication intervals and two ticks more) of
+    /// this cluster's tick `now`, or of as long in host time `now_ns` (a pod catching up runs
+    /// its ticks faster than its neighbours publish). One silent for longer is stalled, or on
+    /// its way to being taken for dead: nothing is handed to it, for nobody would own what is
+    /// handed until it wakes or the hand-off comes back.
+    pub(crate) fn answering(
+        &self,
+        neighbour: ClusterId,
+        now: u64,
+        now_ns: u64,
+        config: &ClusterConfig,
+    ) -> bool {
+        let within = (config.neighbour_timeout_ticks / 6).max(2 * config.replication_interval + 2);
+        let within_ns = (within as f64 * f64::from(config.dt) * 1e9) as u64;
+        self.peers.get(&neighbour).is_some_and(|peer| {
+            peer.status == NeighbourStatus::Alive
+                && (now.saturating_sub(peer.heard_at) <= within
+                    || now_ns.saturating_sub(peer.heard_ns) <= within_ns)
+        })
+    }
+
     /// Notes a frame of `kind` from `neighbour` tagged `tick`, taken in at
     /// this cluster's tick `now` and host time `now_ns`. Returns whether the neighbour was
     /// gone and is back.

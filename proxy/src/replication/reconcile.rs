@@ -102,15 +102,19 @@ impl Reconcile<'_> {
         }
     }
 
-    /// A hand-off to this cluster whose state is from the tick this world is about to step to
-    /// (free-running) is held until that tick (see [`Handoffs::hold_early`]). A state further
-    /// ahead means this world is behind its neighbours (stalled, or catching up): holding it
-    /// would leave the body with no owner for as long, so it is taken at once. Returns whether
+    /// A hand-off to this cluster whose state is from a tick this world has not reached
+    /// (free-running) is held until that tick (see [`Handoffs::hold_early`]): the tick it is
+    /// about to step to, or a later one while it catches up after a stall. Taken at once, the
+    /// body would be stepped again through ticks its giver stepped it in as owner, and counted
+    /// by both for those ticks. A state more than `neighbour_timeout_ticks` ahead is from a
+    /// neighbour that counts its ticks from another start: taken at once. Returns whether
     /// `state` was held.
     fn hold_early(&mut self, state: &EntityState, from: ClusterId) -> bool {
+        let tick = self.sim.tick();
         self.free_running
             && state.cluster_id == self.config.cluster_id
-            && state.tick == self.sim.tick() + 1
+            && state.tick > tick
+            && state.tick <= tick + self.config.neighbour_timeout_ticks.max(1)
             && self.handoffs.hold_early(state, from)
     }
 
