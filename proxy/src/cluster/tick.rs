@@ -332,8 +332,7 @@ impl Cluster {
             .take_answers(events, me, tick, &mut self.events);
     }
 
-    /// The routed writes received, applied just before the step (or forwarded, or answered
-    /// "not here").
+    /// The routed writes received, applied just before the step (or forwarded, or "not here").
     fn apply_routed(&mut self, events: &EventsFrames) {
         let tick = self.sim.tick();
         let mut owner = Owner {

@@ -275,8 +275,7 @@ pub enum ClusterEvent {
     ContactDelivered {
         /// The report.
         name: Name,
-        /// The cluster a body of the report is held for, if this cluster holds it as an
-        /// adopter (its owner taken for dead).
+        /// The cluster a body of the report is held for here as an adopter, if one is.
         adopted_from: Option<ClusterId>,
     },
     /// Contacts seen twice (here and in a neighbour's report) whose second copy was dropped.
