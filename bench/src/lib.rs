@@ -16,6 +16,8 @@
 //! - [`chaos`] — `seam chaos`: the pods under faults on a schedule (kills, stops, Redis
 //!   restarts, garbage and forged frames) and what survived; a runner over the pods and the
 //!   schedule, ops and reports totalled by name from every life's ledger.
+//! - [`capacity`] — `seam capacity`: the largest size of a scene each configuration holds at
+//!   the rate, plain Rapier (`seam-anchor`, built per row) beside seam's pods.
 //! - [`node`] — `seam node`: one pod, ticking on a schedule and sleeping on its transport.
 //! - [`accuracy`] — `seam compare`: a split run against its single-world reference, tick by
 //!   tick, accuracy and cost of one setting; and the same for free-running pods.
@@ -48,6 +50,7 @@
 
 pub mod accuracy;
 pub mod bridge;
+pub mod capacity;
 pub mod chaos;
 pub mod console;
 pub mod document;

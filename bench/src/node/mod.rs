@@ -369,6 +369,7 @@ pub fn run_node(
     {
         tally.max_lag_ns = tally.max_lag_ns.max(due.lag_ns);
         let begun = Instant::now();
+        let cpu_begun = thread_cpu_ns();
         pod.tick().map_err(fail)?;
         if let Some(ledger) = &mut ledger {
             ledger
@@ -383,6 +384,9 @@ pub fn run_node(
         }
         let took = begun.elapsed().as_nanos() as u64;
         tally.tick_time.record(took);
+        tally
+            .tick_cpu
+            .record(thread_cpu_ns().saturating_sub(cpu_begun));
         if schedule.period_ns().is_some_and(|p| took > p) {
             tally.overruns += 1;
         }
@@ -497,6 +501,7 @@ fn write_metrics(path: &std::path::Path, report: &NodeReport) -> BenchResult<()>
 /// What a pod's loop counts as it ticks, and when it last said so.
 struct Tally {
     tick_time: LatencyRecorder,
+    tick_cpu: LatencyRecorder,
     record_time: LatencyRecorder,
     overruns: u64,
     max_lag_ns: u64,
@@ -509,6 +514,7 @@ impl Tally {
     fn new(pod: &Pod) -> Self {
         Self {
             tick_time: LatencyRecorder::default(),
+            tick_cpu: LatencyRecorder::default(),
             record_time: LatencyRecorder::default(),
             overruns: 0,
             max_lag_ns: 0,
@@ -633,6 +639,7 @@ fn node_report(
         wall_s: started.elapsed().as_secs_f64(),
         start_late_ns,
         tick_time: tally.tick_time,
+        tick_cpu: tally.tick_cpu,
         overruns: tally.overruns,
         max_lag_ns: tally.max_lag_ns,
         entities_at_start: pod.owned_at_start(),
@@ -699,4 +706,10 @@ fn ledger_entries(events: &[seam_proxy::TickEvent]) -> Vec<seam_proxy::LedgerEnt
         .iter()
         .filter_map(|e| seam_proxy::LedgerEntry::from_event(e.tick, &e.event))
         .collect()
+}
+
+/// CPU time this thread has spent, ns.
+fn thread_cpu_ns() -> u64 {
+    let t = rustix::time::clock_gettime(rustix::time::ClockId::ThreadCPUTime);
+    t.tv_sec as u64 * 1_000_000_000 + t.tv_nsec as u64
 }

@@ -135,6 +135,10 @@ pub struct NodeReport {
     pub start_late_ns: u64,
     /// Time each tick took, ns.
     pub tick_time: LatencyRecorder,
+    /// CPU time the pod's thread spent in each tick, ns: its work, apart from waiting for a
+    /// core that another process holds.
+    #[serde(default)]
+    pub tick_cpu: LatencyRecorder,
     /// Ticks that took longer than the tick period.
     pub overruns: u64,
     /// Largest delay of a tick's start behind its schedule, ns.

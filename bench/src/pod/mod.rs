@@ -283,38 +283,27 @@ fn spawn_entities(
     let mut spawns: Vec<(EntityState, Option<BodyRole>)> = Vec::new();
     for entity in &scene.entities {
         let body = entity_body(entity, cluster)?;
-        let grid = entity.grid.unwrap_or(scene::Grid {
-            count: [1, 1, 1],
-            spacing: [0.0; 3],
-        });
         let copies = entities.entry(entity.name.clone()).or_default();
-        let mut index = 0;
-        for i in 0..grid.count[0] {
-            for j in 0..grid.count[1] {
-                for k in 0..grid.count[2] {
-                    let id = ids.entity(&entity.name, index);
-                    index += 1;
-                    copies.push(id);
-                    // Scenery is every cluster's, and a restarted pod loads it again; owned
-                    // entities are spawned by their owner at the start only.
-                    let owner = entity.owner.as_ref().filter(|o| plays.contains(*o));
-                    if !entity.is_scenery() && (owner.is_none() || settings.rejoin) {
-                        continue;
-                    }
-                    let offset = [i, j, k].map(|n| n as f32);
-                    let mut at =
-                        [0, 1, 2].map(|a| entity.position[a] + offset[a] * grid.spacing[a]);
-                    if entity.role == scene::Role::Dynamic {
-                        at = perturbed(at, id, settings.perturbation_m);
-                    }
-                    let state = EntityState::new(id, cluster_id, body)
-                        .at(at)
-                        .rotated(entity.rotation)
-                        .velocity(entity.velocity)
-                        .spin(entity.angvel);
-                    spawns.push((state, body_role(entity.role)));
-                }
+        for (index, at) in entity.positions().into_iter().enumerate() {
+            let id = ids.entity(&entity.name, index as u64);
+            copies.push(id);
+            // Scenery is every cluster's, and a restarted pod loads it again; owned entities
+            // are spawned by their owner at the start only.
+            let owner = entity.owner.as_ref().filter(|o| plays.contains(*o));
+            if !entity.is_scenery() && (owner.is_none() || settings.rejoin) {
+                continue;
             }
+            let at = if entity.role == scene::Role::Dynamic {
+                perturbed(at, id, settings.perturbation_m)
+            } else {
+                at
+            };
+            let state = EntityState::new(id, cluster_id, body)
+                .at(at)
+                .rotated(entity.rotation)
+                .velocity(entity.velocity)
+                .spin(entity.angvel);
+            spawns.push((state, body_role(entity.role)));
         }
     }
     if settings.perturbation_m != 0.0 {

@@ -19,6 +19,8 @@ pub struct PodSummary {
     pub ticks: u64,
     /// Time each tick took, ns.
     pub tick_time: LatencySummary,
+    /// CPU time the pod's thread spent in each tick, ns.
+    pub tick_cpu: LatencySummary,
     /// Ticks longer than the tick period.
     pub overruns: u64,
     /// Largest delay of a tick's start behind schedule, ns.
@@ -130,6 +132,7 @@ impl RunReport {
                 cluster: r.cluster.clone(),
                 ticks: r.ticks,
                 tick_time: r.tick_time.summary(),
+                tick_cpu: r.tick_cpu.summary(),
                 overruns: r.overruns,
                 max_lag_ns: r.max_lag_ns,
                 start_late_ns: r.start_late_ns,

@@ -60,6 +60,7 @@
 
 mod model;
 mod shape;
+mod split;
 
 pub use model::{Cluster, Entity, Event, Grid, Region, Role, Scene, SceneGroups, Vec3, host_name};
 pub use shape::{ScenePart, SceneShape};

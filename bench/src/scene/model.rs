@@ -9,7 +9,7 @@ use crate::error::{BenchError, BenchResult};
 pub type Vec3 = [f32; 3];
 
 /// A whole scene.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     /// The scene's name.
@@ -54,7 +54,7 @@ fn default_gravity() -> Vec3 {
 }
 
 /// One cluster and the part of the world it observes.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Cluster {
     /// Its name in this scene.
@@ -71,7 +71,7 @@ pub struct Cluster {
 }
 
 /// An axis-aligned box.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Region {
     /// Lowest corner.
@@ -97,7 +97,7 @@ pub enum Role {
 }
 
 /// Repeats an entity over a lattice: `count` along x, y, z, `spacing` apart.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Grid {
     /// Copies along x, y, z.
@@ -107,7 +107,7 @@ pub struct Grid {
 }
 
 /// An entity (or, with `grid`, a lattice of them).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Entity {
     /// Its name in this scene (copies of a grid get `name#i`).
@@ -162,7 +162,7 @@ pub struct Entity {
 
 /// Collision groups: two bodies meet when each one's `memberships` share a bit with the
 /// other's `filter`.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneGroups {
     /// The groups it is in (bits).
@@ -190,6 +190,25 @@ impl Entity {
         self.role == Role::Scenery
     }
 
+    /// Where each copy it makes starts, in the order copies are numbered (`name#i`): x
+    /// outermost, z innermost; one position without a grid.
+    pub fn positions(&self) -> Vec<Vec3> {
+        let Some(grid) = self.grid else {
+            return vec![self.position];
+        };
+        let mut positions = Vec::with_capacity(self.copies() as usize);
+        for i in 0..grid.count[0] {
+            for j in 0..grid.count[1] {
+                for k in 0..grid.count[2] {
+                    let offset = [i, j, k].map(|n| n as f32);
+                    positions
+                        .push([0, 1, 2].map(|a| self.position[a] + offset[a] * grid.spacing[a]));
+                }
+            }
+        }
+        positions
+    }
+
     /// How many entities this entry makes.
     pub fn copies(&self) -> u64 {
         self.grid
@@ -198,7 +217,7 @@ impl Entity {
 }
 
 /// Something that happens at a tick.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Event {
     /// A cluster fires a projectile (a new entity it owns).

@@ -6,7 +6,7 @@ use seam_bench::bridge::BridgeArgs;
 use seam_bench::document::Document;
 use seam_bench::node::NodeArgs;
 
-use crate::cmd::{chaos, compare, inspect, network, ops, ping, run, scene, sweep};
+use crate::cmd::{capacity, chaos, compare, inspect, network, ops, ping, run, scene, sweep};
 
 #[derive(Parser)]
 #[command(
@@ -83,6 +83,20 @@ pub(crate) enum Command {
     /// panics, and each pod's memory after warm-up. Exits with 1 if a target does not hold
     /// (RELIABILITY.md lists them; a routed op lost is one).
     Chaos(chaos::ChaosArgs),
+    /// The largest size of a scene that holds the tick rate: plain Rapier against seam's pods.
+    ///
+    /// For each row — plain Rapier on one thread (`rapier`, `rapier-ed`), Rapier's `parallel`
+    /// feature on every core (`parallel`, `parallel-ed`), seam as N pods on shared memory
+    /// (`seam:N`; the scene's own clusters when it has N, else its world cut into N) — finds
+    /// by doubling and bisection the most layers (every grid entity repeated along y) at which
+    /// at most `--max-overrun` of the ticks take longer than the period, each probe running
+    /// `--ticks` ticks paced at `--rate`. Plain Rapier runs as `seam-anchor`, built on first
+    /// use with exactly the features its row names (cargo is needed). Prints one line per
+    /// probe, then per row the largest size and its bodies against the first row's, wall and
+    /// CPU time per tick (seam: the slowest pod's wall, the pods' thread CPU summed, so
+    /// contention shows apart from work), and CPU at the first row's largest size against
+    /// the first row's; writes OUT/capacity_SCENE.svg and .png.
+    Capacity(capacity::CapacityArgs),
     /// Look at a recording: a page to scrub through, a still, or the page's own timings.
     ///
     /// Writes one self-contained HTML page (FILE.html unless --out says where; nothing in it

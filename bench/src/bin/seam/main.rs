@@ -34,6 +34,7 @@ fn run(command: &Command) -> BenchResult<()> {
         Command::Sweep(args) => cmd::sweep::main(args),
         Command::Network(args) => cmd::network::main(args),
         Command::Chaos(args) => cmd::chaos::main(args),
+        Command::Capacity(args) => cmd::capacity::main(args),
         Command::Inspect(args) => cmd::inspect::main(args),
         Command::Node(args) => cmd::node::main(args),
         Command::Bridge(args) => cmd::bridge::main(args),

@@ -3,6 +3,7 @@
 //! status. What several commands share is here.
 
 pub(crate) mod bridge;
+pub(crate) mod capacity;
 pub(crate) mod chaos;
 pub(crate) mod compare;
 pub(crate) mod inspect;

@@ -1,0 +1,417 @@
+//! `seam capacity`: the largest size of a scene that holds its tick rate, for one plain Rapier
+//! world and for seam's pods, found by bisection and measured side by side in one run.
+//!
+//! A size is a number of layers (`Scene::stacked`: every grid entity repeated along y). A row
+//! *holds* a size when at most `max_overrun` of its ticks (every pod's, for seam) take longer
+//! than the period. Rows:
+//!
+//! - `rapier`, `rapier-ed`: plain Rapier, one thread (`seam-anchor`, without and with
+//!   Rapier's `enhanced-determinism`, which seam's worlds have);
+//! - `parallel`, `parallel-ed`: plain Rapier with its `parallel` feature, stepping on every
+//!   core through rayon (with `enhanced-determinism`, Rapier documents results equal to the
+//!   sequential solver's);
+//! - `seam:N`: the scene as N free-running pods on shared memory (`seam run`), its own
+//!   clusters when it has N, else its world cut into N (`Scene::split_into`).
+//!
+//! Each probe prints what it measured: wall time per tick (the slowest pod's, for seam) and
+//! CPU time per tick (the process's for plain Rapier, every thread's; for seam the pods'
+//! threads' summed), so contention between pods shows apart from their work. Single worlds
+//! are paced at the rate like pods (a tick, then sleep until the next is due).
+
+mod anchor;
+mod chart;
+mod table;
+
+pub use anchor::Build;
+pub use chart::draw;
+pub use table::document;
+
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+
+use serde::Serialize;
+
+use crate::error::{BenchError, BenchResult};
+use crate::run::{RunPlan, run_pods};
+
+/// One configuration measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Row {
+    /// Plain Rapier, built as said.
+    Rapier(Build),
+    /// seam's pods.
+    Seam {
+        /// How many.
+        pods: usize,
+    },
+}
+
+impl Row {
+    /// Reads `rapier`, `rapier-ed`, `parallel`, `parallel-ed` or `seam:N`.
+    pub fn parse(text: &str) -> Result<Row, String> {
+        let rapier = |parallel, determinism| {
+            Ok(Row::Rapier(Build {
+                parallel,
+                determinism,
+            }))
+        };
+        match text {
+            "rapier" => rapier(false, false),
+            "rapier-ed" => rapier(false, true),
+            "parallel" => rapier(true, false),
+            "parallel-ed" => rapier(true, true),
+            _ => match text.strip_prefix("seam:").map(str::parse::<usize>) {
+                Some(Ok(pods)) if pods > 0 => Ok(Row::Seam { pods }),
+                _ => Err(format!(
+                    "{text:?} is not a row: rapier, rapier-ed, parallel, parallel-ed or seam:N \
+                     (N pods, at least 1)"
+                )),
+            },
+        }
+    }
+
+    /// What the row is, in words.
+    pub fn label(&self) -> String {
+        match *self {
+            Row::Rapier(build) => {
+                let threads = if build.parallel {
+                    format!("parallel, {} threads", cores())
+                } else {
+                    "1 thread".to_owned()
+                };
+                let determinism = if build.determinism {
+                    ", enhanced-determinism"
+                } else {
+                    ""
+                };
+                format!("Rapier {threads}{determinism}")
+            }
+            Row::Seam { pods } => format!("seam, {pods} pods"),
+        }
+    }
+}
+
+/// The cores this host has.
+pub fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, usize::from)
+}
+
+/// The rows measured unless told otherwise: plain Rapier on one thread and in parallel (with
+/// and without enhanced determinism), seam with as many pods as cores, and with four.
+pub fn default_rows() -> Vec<Row> {
+    let mut rows = vec![
+        Row::parse("rapier"),
+        Row::parse("parallel"),
+        Row::parse("parallel-ed"),
+    ]
+    .into_iter()
+    .flatten()
+    .collect::<Vec<_>>();
+    rows.push(Row::Seam { pods: cores() });
+    if cores() != 4 {
+        rows.push(Row::Seam { pods: 4 });
+    }
+    rows
+}
+
+/// What `seam capacity` measures.
+#[derive(Debug, Clone)]
+pub struct CapacityPlan {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// The rows, in order; the first is what the others are compared with.
+    pub rows: Vec<Row>,
+    /// Ticks per probe.
+    pub ticks: u64,
+    /// Ticks per second.
+    pub rate: f64,
+    /// The largest share of ticks that may overrun the period for a size to hold.
+    pub max_overrun: f64,
+    /// The most layers tried.
+    pub max_layers: u32,
+    /// The command that starts a pod (see `RunPlan::node_command`).
+    pub node_command: Vec<std::ffi::OsString>,
+}
+
+/// One size of one row, measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct Probe {
+    /// The row.
+    pub row: String,
+    /// Layers of the scene.
+    pub layers: u32,
+    /// Bodies in the world (every pod's own, for seam).
+    pub bodies: u64,
+    /// Ticks measured (every pod's, for seam).
+    pub ticks: u64,
+    /// Ticks longer than the period.
+    pub overruns: u64,
+    /// Median wall time per tick, ns (the slowest pod's median, for seam).
+    pub wall_p50_ns: u64,
+    /// 99th percentile wall time per tick, ns (the slowest pod's).
+    pub wall_p99_ns: u64,
+    /// Median CPU time per tick, ns: the process's (every thread's) for plain Rapier, the
+    /// pods' threads' medians summed for seam.
+    pub cpu_p50_ns: u64,
+    /// Whether the size holds the rate.
+    pub holds: bool,
+}
+
+/// A row's result.
+#[derive(Debug, Clone, Serialize)]
+pub struct RowResult {
+    /// The row.
+    pub row: String,
+    /// The largest size that holds (0: not even one layer).
+    pub layers: u32,
+    /// Its bodies.
+    pub bodies: u64,
+    /// Whether the search stopped at `max_layers` still holding.
+    pub capped: bool,
+    /// Its probe at that size.
+    pub at_largest: Option<Probe>,
+    /// Its probe at the first row's largest size (the common size costs are compared at).
+    pub at_common: Option<Probe>,
+}
+
+/// Everything `seam capacity` measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct CapacityReport {
+    /// The scene's name.
+    pub scene: String,
+    /// Ticks per second.
+    pub rate: f64,
+    /// Ticks per probe.
+    pub ticks: u64,
+    /// The overrun share allowed.
+    pub max_overrun: f64,
+    /// Cores of this host.
+    pub cores: usize,
+    /// Bodies a layer adds (scenery, not stacked, apart).
+    pub bodies_per_layer: u64,
+    /// The common size, in layers (the first row's largest, at least 1).
+    pub common_layers: u32,
+    /// Each row's result, in order.
+    pub rows: Vec<RowResult>,
+    /// Every probe, in the order run.
+    pub probes: Vec<Probe>,
+}
+
+/// Runs the plan, saying each probe's outcome to `progress`.
+pub fn run(plan: &CapacityPlan, mut progress: impl FnMut(&Probe)) -> BenchResult<CapacityReport> {
+    let scene = crate::scene::load(&plan.scene)?;
+    if !(plan.rate > 0.0 && plan.rate.is_finite()) {
+        return Err(BenchError::flag(
+            "--rate",
+            "must be above 0: capacity is a tick rate held",
+        ));
+    }
+    if !(0.0..1.0).contains(&plan.max_overrun) {
+        return Err(BenchError::flag(
+            "--max-overrun",
+            "must be at least 0 and below 1",
+        ));
+    }
+    let scratch = std::env::temp_dir().join(format!("seam-capacity-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch)
+        .map_err(|e| BenchError::io("create", scratch.display(), e))?;
+    let mut prober = Prober {
+        plan,
+        scene: &scene,
+        scratch: scratch.clone(),
+        anchors: Vec::new(),
+        probes: Vec::new(),
+    };
+    let result = search_all(&mut prober, &mut progress);
+    let _ = std::fs::remove_dir_all(&scratch);
+    let rows = result?;
+    let common_layers = rows.first().map_or(1, |r| r.layers.max(1));
+    Ok(CapacityReport {
+        scene: scene.name.clone(),
+        rate: plan.rate,
+        ticks: plan.ticks,
+        max_overrun: plan.max_overrun,
+        cores: cores(),
+        bodies_per_layer: scene.clone().stacked(2)?.entity_count()
+            - scene.clone().stacked(1)?.entity_count(),
+        common_layers,
+        rows,
+        probes: prober.probes,
+    })
+}
+
+/// Every row's largest size, then every row at the first row's.
+fn search_all(
+    prober: &mut Prober<'_>,
+    progress: &mut impl FnMut(&Probe),
+) -> BenchResult<Vec<RowResult>> {
+    let mut rows = Vec::new();
+    for &row in &prober.plan.rows {
+        let (layers, capped) = largest(prober, row, progress)?;
+        rows.push((row, layers, capped));
+    }
+    let common = rows.first().map_or(1, |&(_, layers, _)| layers.max(1));
+    let mut results = Vec::new();
+    for (row, layers, capped) in rows {
+        let at_common = prober.probe(row, common, progress)?;
+        let at_largest = match layers {
+            0 => None,
+            l => Some(prober.probe(row, l, progress)?),
+        };
+        results.push(RowResult {
+            row: row.label(),
+            layers,
+            bodies: at_largest.as_ref().map_or(0, |p| p.bodies),
+            capped,
+            at_largest,
+            at_common: Some(at_common),
+        });
+    }
+    Ok(results)
+}
+
+/// The largest number of layers `row` holds, by doubling then bisection; and whether the
+/// search stopped at `max_layers` still holding.
+fn largest(
+    prober: &mut Prober<'_>,
+    row: Row,
+    progress: &mut impl FnMut(&Probe),
+) -> BenchResult<(u32, bool)> {
+    let max = prober.plan.max_layers.max(1);
+    let mut held = 0;
+    let mut failed = None;
+    let mut layers = 1;
+    while failed.is_none() && held < max {
+        if prober.probe(row, layers, progress)?.holds {
+            held = layers;
+            layers = layers.saturating_mul(2).min(max);
+        } else {
+            failed = Some(layers);
+        }
+    }
+    while let Some(bad) = failed.filter(|&bad| bad - held > 1) {
+        let middle = held + (bad - held) / 2;
+        if prober.probe(row, middle, progress)?.holds {
+            held = middle;
+        } else {
+            failed = Some(middle);
+        }
+    }
+    Ok((held, failed.is_none()))
+}
+
+/// Runs probes, remembering each (a size probed twice is run once).
+struct Prober<'a> {
+    plan: &'a CapacityPlan,
+    scene: &'a crate::scene::Scene,
+    scratch: PathBuf,
+    anchors: Vec<(Build, PathBuf)>,
+    probes: Vec<Probe>,
+}
+
+impl Prober<'_> {
+    fn probe(
+        &mut self,
+        row: Row,
+        layers: u32,
+        progress: &mut impl FnMut(&Probe),
+    ) -> BenchResult<Probe> {
+        let label = row.label();
+        if let Some(done) = self
+            .probes
+            .iter()
+            .find(|p| p.row == label && p.layers == layers)
+        {
+            return Ok(done.clone());
+        }
+        let scene = self.scene.clone().stacked(layers)?;
+        let mut probe = match row {
+            Row::Rapier(build) => self.rapier(build, &scene)?,
+            Row::Seam { pods } => self.seam(pods, &scene, layers)?,
+        };
+        probe.row = label;
+        probe.layers = layers;
+        probe.holds = probe.overruns as f64 <= self.plan.max_overrun * probe.ticks as f64;
+        progress(&probe);
+        self.probes.push(probe.clone());
+        Ok(probe)
+    }
+
+    fn rapier(&mut self, build: Build, scene: &crate::scene::Scene) -> BenchResult<Probe> {
+        let binary = match self.anchors.iter().find(|(b, _)| *b == build) {
+            Some((_, path)) => path.clone(),
+            None => {
+                eprintln!(
+                    "seam capacity: building the plain-Rapier anchor ({}) if it is not built",
+                    Row::Rapier(build).label()
+                );
+                let path = anchor::binary(build)?;
+                self.anchors.push((build, path.clone()));
+                path
+            }
+        };
+        let world = anchor::world_of(scene)?;
+        let timings = anchor::run(
+            &binary,
+            &world,
+            &self.scratch,
+            self.plan.ticks,
+            self.plan.rate,
+        )?;
+        let period = (1e9 / self.plan.rate) as u64;
+        Ok(Probe {
+            row: String::new(),
+            layers: 0,
+            bodies: timings.bodies as u64,
+            ticks: timings.wall_ns.len() as u64,
+            overruns: timings.wall_ns.iter().filter(|&&t| t > period).count() as u64,
+            wall_p50_ns: percentile(&timings.wall_ns, 0.50),
+            wall_p99_ns: percentile(&timings.wall_ns, 0.99),
+            cpu_p50_ns: percentile(&timings.cpu_ns, 0.50),
+            holds: false,
+        })
+    }
+
+    fn seam(
+        &mut self,
+        pods: usize,
+        scene: &crate::scene::Scene,
+        layers: u32,
+    ) -> BenchResult<Probe> {
+        let split = scene.split_into(pods)?;
+        let path = self.scratch.join(format!("scene-{pods}-{layers}.toml"));
+        let text = toml::to_string(&split)
+            .map_err(|e| BenchError::flag("SCENE", format!("cannot write it back: {e}")))?;
+        std::fs::write(&path, text).map_err(|e| BenchError::io("write", path.display(), e))?;
+        let mut plan = RunPlan::new(&path, "shm");
+        plan.node_command.clone_from(&self.plan.node_command);
+        plan.ticks = Some(self.plan.ticks);
+        plan.rate = self.plan.rate;
+        let stop = AtomicBool::new(false);
+        let (report, _) = run_pods(&plan, &stop, |_| {})
+            .map_err(|e| e.within(format!("{pods} pods at {layers} layers")))?;
+        let pods = &report.pods;
+        Ok(Probe {
+            row: String::new(),
+            layers: 0,
+            bodies: split.entity_count(),
+            ticks: pods.iter().map(|p| p.ticks).sum(),
+            overruns: pods.iter().map(|p| p.overruns).sum(),
+            wall_p50_ns: pods.iter().map(|p| p.tick_time.p50_ns).max().unwrap_or(0),
+            wall_p99_ns: pods.iter().map(|p| p.tick_time.p99_ns).max().unwrap_or(0),
+            cpu_p50_ns: pods.iter().map(|p| p.tick_cpu.p50_ns).sum(),
+            holds: false,
+        })
+    }
+}
+
+/// The `q` quantile of `values` (nearest rank), 0 for none.
+fn percentile(values: &[u64], q: f64) -> u64 {
+    if values.is_empty() {
+        return 0;
+    }
+    let mut sorted = values.to_vec();
+    sorted.sort_unstable();
+    let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+    sorted[rank - 1]
+}
