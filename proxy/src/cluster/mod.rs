@@ -107,8 +107,6 @@ pub struct Cluster {
     /// Free-running, this tick started with every live neighbour in step and its frames of
     /// the step before in, as a lock-step tick does.
     in_step: bool,
-    /// Running late ticks back to back (see [`Cluster::set_catching_up`]).
-    catching_up: bool,
 }
 
 impl Cluster {
@@ -190,7 +188,6 @@ impl Cluster {
             leaving: false,
             begun: false,
             in_step: false,
-            catching_up: false,
             config,
             sim,
             transport,
@@ -339,16 +336,6 @@ impl Cluster {
     /// have, and its entity ends owned by nobody.
     pub fn stop_policy_handoffs(&mut self) {
         self.policy = None;
-    }
-
-    /// Says whether the ticks to come are late ones run back to back, a free-running pod
-    /// catching up with its schedule after a stall ([`Schedule`](crate::Schedule) says so
-    /// itself). Meanwhile the authority policy hands nothing over: those ticks are in the
-    /// neighbours' past, and a hand-off made there would cross what they did since (taken by
-    /// a neighbour that adopted the body meanwhile and is handing it back, both would own
-    /// it). Game code's hand-offs still go.
-    pub fn set_catching_up(&mut self, catching_up: bool) {
-        self.catching_up = catching_up;
     }
 
     /// Says to every neighbour that this cluster stops on purpose: one last physics-events

@@ -82,7 +82,7 @@ impl Cluster {
     fn ask_policy(&mut self) {
         let me = self.config.cluster_id;
         let owned = self.publisher.gather(&self.sim, me);
-        let Some(policy) = self.policy.as_mut().filter(|_| !self.catching_up) else {
+        let Some(policy) = self.policy.as_mut() else {
             return;
         };
         let neighbours = self.neighbours.views(&self.config);

@@ -4,8 +4,7 @@
 //! due and sleeps on its transport in between ([`Cluster::wait`]), so frames are taken in as
 //! they arrive and an idle pod uses no CPU. Tick `k` is due at `anchor + k · period`: pods given
 //! the same anchor (a `CLOCK_MONOTONIC` time, see [`monotonic_ns`]) tick in phase, and a pod
-//! that fell behind runs its late ticks back to back until it has caught up, its authority
-//! policy handing nothing over meanwhile ([`Cluster::set_catching_up`]). The last
+//! that fell behind runs its late ticks back to back until it has caught up. The last
 //! [`DRAIN_S`] of a run start no policy hand-offs ([`Cluster::stop_policy_handoffs`]), so every
 //! hand-off under way is taken before the pods stop.
 //!
@@ -148,8 +147,6 @@ impl Schedule {
             }
             cluster.wait(Duration::from_nanos(due - now))?;
         };
-        // More than two periods late: a stall is being caught up on.
-        cluster.set_catching_up(self.period_ns.is_some_and(|p| lag_ns > 2 * p));
         let tick = self.next;
         self.next += 1;
         Ok(Some(Due { tick, lag_ns }))
