@@ -359,15 +359,16 @@ impl Prober<'_> {
             self.plan.rate,
         )?;
         let period = (1e9 / self.plan.rate) as u64;
+        let wall = summary(&timings.wall_ns);
         Ok(Probe {
             row: String::new(),
             layers: 0,
             bodies: timings.bodies as u64,
             ticks: timings.wall_ns.len() as u64,
             overruns: timings.wall_ns.iter().filter(|&&t| t > period).count() as u64,
-            wall_p50_ns: percentile(&timings.wall_ns, 0.50),
-            wall_p99_ns: percentile(&timings.wall_ns, 0.99),
-            cpu_p50_ns: percentile(&timings.cpu_ns, 0.50),
+            wall_p50_ns: wall.p50_ns,
+            wall_p99_ns: wall.p99_ns,
+            cpu_p50_ns: summary(&timings.cpu_ns).p50_ns,
             holds: false,
         })
     }
@@ -405,13 +406,11 @@ impl Prober<'_> {
     }
 }
 
-/// The `q` quantile of `values` (nearest rank), 0 for none.
-fn percentile(values: &[u64], q: f64) -> u64 {
-    if values.is_empty() {
-        return 0;
+/// `values` (ns) as the other reports summarise them.
+fn summary(values: &[u64]) -> crate::latency::LatencySummary {
+    let mut recorder = crate::latency::LatencyRecorder::default();
+    for &value in values {
+        recorder.record(value);
     }
-    let mut sorted = values.to_vec();
-    sorted.sort_unstable();
-    let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
-    sorted[rank - 1]
+    recorder.summary()
 }
