@@ -35,6 +35,7 @@ use crate::routing::Routing;
 use crate::world::Region;
 
 mod bodies;
+mod catch_up;
 mod exchange;
 mod publish;
 mod receive;
@@ -92,6 +93,8 @@ pub struct Cluster {
     /// Host monotonic time of the tick being run, ns (see [`Cluster::tick_at`]): the clock
     /// liveness counts silence on, and the time a frame taken in is heard at.
     host_ns: u64,
+    /// How far ahead a neighbour's hand-off or claim is held, behind after a stall.
+    catch_up: catch_up::CatchUp,
     /// Ticking free-running (`tick`, `wait`) rather than in lock-step: the inbox then keeps
     /// one replication frame per neighbour.
     free_running: bool,
@@ -110,6 +113,12 @@ pub struct Cluster {
 }
 
 impl Cluster {
+    /// Notes the host time of the tick about to run (see [`Cluster::tick_at`]).
+    fn note_host_time(&mut self, now_ns: u64) {
+        self.catch_up.note(self.sim.tick(), now_ns, &self.config);
+        self.host_ns = now_ns;
+    }
+
     /// Opens the transport the configuration names and subscribes to the neighbours.
     ///
     /// A cluster runs once: it claims its id on the transport first (see
@@ -184,6 +193,7 @@ impl Cluster {
                 config.neighbour_timeout_ticks,
             ),
             host_ns: monotonic_ns(),
+            catch_up: catch_up::CatchUp::default(),
             free_running: false,
             leaving: false,
             begun: false,

@@ -42,7 +42,7 @@ impl Cluster {
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
         self.free_running = true;
-        self.host_ns = now_ns;
+        self.note_host_time(now_ns);
         self.drain()?;
         self.wait_step_free()?;
         self.check_liveness();
@@ -217,20 +217,22 @@ impl Cluster {
         }
     }
 
-    /// Brings the world in line with what the neighbours replicated: first the hand-offs held
-    /// for this tick, then the frames; each frame is kept as its sender's last picture (with a
-    /// world map, to adopt from).
+    /// Brings the world in line with the neighbours' frames (the hand-offs held for this tick
+    /// first); each is kept as its sender's last picture (with a world map, to adopt from).
     fn reconcile(&mut self, frames: Vec<HeldReplication>) {
-        self.interest.expire(self.sim.tick());
+        let (tick, config) = (self.sim.tick(), &self.config);
+        self.interest.expire(tick);
         let mut reconcile = Reconcile {
             sim: &mut self.sim,
-            config: &self.config,
+            config,
             events: &mut self.events,
             handoffs: &mut self.handoffs,
             interest: &self.interest,
             proxies: &mut self.proxies,
             predictions: &mut self.predictions,
-            free_running: self.free_running,
+            hold_until: self
+                .free_running
+                .then(|| self.catch_up.holds_until(tick, config)),
             yielded: Vec::new(),
         };
         reconcile.early_handoffs();

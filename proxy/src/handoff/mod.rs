@@ -159,10 +159,9 @@ pub(crate) struct Handoffs {
     given_last: Vec<EntityId>,
     /// Entities this cluster handed over, with the epoch they left at and the tick.
     released: IdMap<EntityId, (u32, u64)>,
-    /// Hand-offs to this cluster whose state is from a later tick than this world's, with the
-    /// cluster that sent each: taken at the tick the state belongs to, so the body is not
-    /// stepped twice for one tick.
-    early: IdMap<EntityId, (EntityState, ClusterId)>,
+    /// Hand-offs to this cluster and claims back on its entities from a later tick than this
+    /// world's, by entity and epoch (an adopter's claim, then its return), with their senders.
+    early: IdMap<(EntityId, u32), (EntityState, ClusterId)>,
     /// Entities whose hand-off came back untaken, with the cluster that did not take it and
     /// the tick it came back: the policy does not hand them there again for a while (a
     /// neighbour that cannot model a body, its shape unregistered there say, would leave it
@@ -358,6 +357,11 @@ impl Handoffs {
             .retain(|_, handed| handed.cluster_id != dead);
     }
 
+    /// Whether this cluster handed `entity` over lately at an epoch later than `epoch`.
+    pub(crate) fn released_after(&self, entity: EntityId, epoch: u32) -> bool {
+        (self.released.get(&entity)).is_some_and(|&(at, _)| epoch < at)
+    }
+
     /// Whether a hand-off of `entity` to this cluster at `epoch` is a repeat of one from
     /// before this cluster gave the entity away again.
     pub(crate) fn was_released(&self, entity: EntityId, epoch: u32) -> bool {
@@ -366,30 +370,29 @@ impl Handoffs {
             .is_some_and(|&(released, _)| epoch <= released)
     }
 
-    /// Holds a hand-off to this cluster whose state is from a tick this world has not reached
-    /// (free-running: the old owner stepped the body and published after this cluster's last
-    /// tick, as between staggered pods, or this cluster is catching up after a stall), until
-    /// that tick, so the body is taken where it is at the tick it is taken and not stepped
-    /// twice for one tick. Its proxy stays where the last frame put it. Returns whether it was
-    /// held (not when too many are).
+    /// Holds a hand-off to this cluster (or a claim back) from a tick this world has not
+    /// reached until that tick (see `Reconcile::hold_early`); false when too many are held.
     pub(crate) fn hold_early(&mut self, state: &EntityState, from: ClusterId) -> bool {
-        let room = self.early.len() < MAX_EARLY_HANDOFFS;
+        let key = (state.id, state.epoch);
+        let room = self.early.len() < MAX_EARLY_HANDOFFS || self.early.contains_key(&key);
         if room {
-            self.early.insert(state.id, (*state, from));
+            self.early.insert(key, (*state, from));
         }
         room
     }
 
-    /// Takes the held hand-offs whose tick this world has reached, with their senders.
-    pub(crate) fn take_early(&mut self, tick: u64) -> Vec<(EntityState, ClusterId)> {
-        let due: Vec<EntityId> = self
-            .early
-            .iter()
-            .filter(|(_, (state, _))| state.tick <= tick)
-            .map(|(id, _)| *id)
-            .collect();
-        due.iter()
-            .filter_map(|id| self.early.swap_remove(id))
-            .collect()
+    /// Takes the held hand-offs and claims this world's `tick` reached or that are beyond
+    /// `until` (no longer catching up to them), with their senders, oldest epoch first.
+    pub(crate) fn take_early(&mut self, tick: u64, until: u64) -> Vec<(EntityState, ClusterId)> {
+        let mut due = Vec::new();
+        self.early.retain(|_, held| {
+            let keep = held.0.tick > tick && held.0.tick <= until;
+            if !keep {
+                due.push(*held);
+            }
+            keep
+        });
+        due.sort_by_key(|(state, _)| state.epoch);
+        due
     }
 }

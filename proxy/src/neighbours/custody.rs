@@ -88,11 +88,16 @@ impl Custody {
             if adoption::adopter(&config.world, dead, state.position, alive) != Some(me) {
                 continue;
             }
+            // At the next epoch: the adopter's claim (and its return, at the one after)
+            // outranks anything the dead cluster says of the entity at its own epoch, if it was
+            // only stalled and hands the entity on as it catches up.
+            let known = sim.info(state.id).map(|i| (i.owner, i.epoch));
             let adopted = EntityState {
                 cluster_id: me,
+                epoch: state.epoch.max(known.map_or(0, |(_, e)| e)) + 1,
                 ..*state
             };
-            let done = match sim.info(state.id).map(|i| i.owner) {
+            let done = match known.map(|(owner, _)| owner) {
                 Some(owner) if owner == dead => sim
                     .set_role(state.id, owner_role(state))
                     .and_then(|()| sim.apply_state(&adopted)),

@@ -21,8 +21,9 @@ pub(crate) struct Reconcile<'a> {
     pub(crate) interest: &'a Interest,
     pub(crate) proxies: &'a mut Proxies,
     pub(crate) predictions: &'a mut Predictions,
-    /// Ticking free-running: a hand-off from the next tick is held until then.
-    pub(crate) free_running: bool,
+    /// Free-running, the latest tick a hand-off to this cluster or a claim on one of its
+    /// entities from a tick this world has not reached is held until (see `hold_early`).
+    pub(crate) hold_until: Option<u64>,
     /// Entities this cluster owned and yielded to a later claim (see `yield_to`).
     pub(crate) yielded: Vec<EntityId>,
 }
@@ -76,11 +77,11 @@ impl Reconcile<'_> {
                 self.rejected(from);
                 continue;
             }
-            if self.hold_early(&state, from) {
+            let known = self.sim.info(state.id).map(|i| (i.owner, i.epoch));
+            if self.hold_early(&state, from, known) {
                 listed.insert(state.id, ());
                 continue;
             }
-            let known = self.sim.info(state.id).map(|i| (i.owner, i.epoch));
             if self.state(&state, from, known, &mut listed).is_err() {
                 self.rejected(from);
                 tracing::debug!(
@@ -102,25 +103,37 @@ impl Reconcile<'_> {
         }
     }
 
-    /// A hand-off to this cluster whose state is from a tick this world has not reached
-    /// (free-running) is held until that tick (see [`Handoffs::hold_early`]): the tick it is
-    /// about to step to, or a later one while it catches up after a stall. Taken at once, the
-    /// body would be stepped again through ticks its giver stepped it in as owner, and counted
-    /// by both for those ticks. A state more than `neighbour_timeout_ticks` ahead is from a
-    /// neighbour that counts its ticks from another start: taken at once. Returns whether
-    /// `state` was held.
-    fn hold_early(&mut self, state: &EntityState, from: ClusterId) -> bool {
-        let tick = self.sim.tick();
-        self.free_running
-            && state.cluster_id == self.config.cluster_id
-            && state.tick > tick
-            && state.tick <= tick + self.config.neighbour_timeout_ticks.max(1)
-            && self.handoffs.hold_early(state, from)
+    /// A hand-off to this cluster, or a claim back at a later epoch of an entity this cluster
+    /// owns, whose state is from a tick this world has not reached (free-running) is held until
+    /// that tick (see [`Handoffs::hold_early`]): the tick it is about to step to, or a later
+    /// one while it catches up after a stall (`CatchUp`). Taken at once, a handed body would
+    /// be stepped again through ticks its giver stepped it in as owner, and a claimed one
+    /// would be given up for ticks nobody steps it in (its adopter's claim speaks from the
+    /// tick it adopted, this world is still behind it), so either would be counted by two
+    /// pods or by none. A state further ahead than `hold_until` is from a neighbour that
+    /// counts its ticks from another start: taken at once. Returns whether `state` was held.
+    fn hold_early(
+        &mut self,
+        state: &EntityState,
+        from: ClusterId,
+        known: Option<(ClusterId, u32)>,
+    ) -> bool {
+        let me = self.config.cluster_id;
+        let claimed_back = known.is_some_and(|(owner, epoch)| {
+            owner == me && state.cluster_id == from && state.epoch > epoch
+        });
+        self.hold_until.is_some_and(|until| {
+            (state.cluster_id == me || claimed_back)
+                && state.tick > self.sim.tick()
+                && state.tick <= until
+        }) && self.handoffs.hold_early(state, from)
     }
 
     /// Takes the held hand-offs whose tick this world has reached.
     pub(crate) fn early_handoffs(&mut self) {
-        for (state, from) in self.handoffs.take_early(self.sim.tick()) {
+        let tick = self.sim.tick();
+        let until = self.hold_until.unwrap_or(tick);
+        for (state, from) in self.handoffs.take_early(tick, until) {
             let known = self.sim.info(state.id).map(|i| (i.owner, i.epoch));
             if self
                 .state(&state, from, known, &mut IdMap::default())
@@ -152,8 +165,12 @@ impl Reconcile<'_> {
                 Ok(())
             }
             // Older than what this world knows (a hand-off repeated after the entity moved
-            // on): not news.
-            Some((_, epoch)) if state.epoch < epoch => Ok(()),
+            // on, or a pod catching up after a stall still listing what was adopted from it
+            // and handed back since): not news, but still listed, so not departed.
+            Some((_, epoch)) if state.epoch < epoch => {
+                listed.insert(state.id, ());
+                Ok(())
+            }
             // A repeat of the hand-off this world already applied.
             Some((owner, epoch))
                 if owner != from && state.epoch == epoch && state.cluster_id == owner =>
@@ -191,6 +208,9 @@ impl Reconcile<'_> {
                 self.taken(state, from);
                 Ok(())
             }
+            // A state from before this cluster's own later hand-off of the entity (a pod
+            // catching up after a stall): stale, no proxy made of it.
+            None if self.handoffs.released_after(state.id, state.epoch) => Ok(()),
             None if state.cluster_id == from && self.visible(state) => {
                 listed.insert(state.id, ());
                 self.spawn(
