@@ -189,6 +189,18 @@ impl ClusterSim {
         Some(state)
     }
 
+    /// The current states of the entities this cluster owns, with their roles, in entity
+    /// order: [`ClusterSim::state`] of each, in one pass.
+    pub fn owned_states(&self) -> impl Iterator<Item = (EntityState, BodyRole)> + '_ {
+        let me = self.config.cluster_id;
+        (self.entities.iter())
+            .filter(move |(_, entry)| entry.info.owner == me)
+            .map(|(&id, entry)| {
+                let state = body::state_of(&self.world, id, entry, self.tick);
+                (state, entry.info.role)
+            })
+    }
+
     /// Changes a body's role in place, keeping its handle, pose and (where Rapier allows)
     /// velocity: a body made Fixed loses its velocity (Rapier zeroes it); a body made dynamic
     /// or kinematic keeps the velocity it has, and is woken.

@@ -36,6 +36,7 @@ use crate::world::Region;
 
 mod bodies;
 mod catch_up;
+mod coupling;
 mod exchange;
 mod publish;
 mod receive;

@@ -39,10 +39,13 @@ impl Cluster {
     }
 
     /// Publishes this tick's replication frame (every `replication_interval` ticks, with any
-    /// hand-offs) and one events frame per neighbour.
+    /// hand-offs) and one events frame per neighbour. A cluster without neighbours (one world
+    /// of its own) publishes nothing: no cluster proxies its bodies or takes them over.
     pub(super) fn publish(&mut self) -> Result<(), ClusterError> {
         let tick = self.sim.tick();
-        if tick.is_multiple_of(self.config.replication_interval) {
+        if tick.is_multiple_of(self.config.replication_interval)
+            && !self.config.neighbours.is_empty()
+        {
             self.publish_replication(tick)?;
         }
         for i in 0..self.config.neighbours.len() {

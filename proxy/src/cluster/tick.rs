@@ -371,21 +371,6 @@ impl Cluster {
         );
     }
 
-    /// Proxies a body of this cluster may touch made dynamic bodies of their entity's mass for
-    /// the step (see `seam_sim::coupling`), with the impulses routed to them shown.
-    fn couple(&mut self) {
-        if !self.config.coupling || self.config.proxy_mode == crate::ProxyMode::Custom {
-            return;
-        }
-        let changes = self.sim.couple_proxies(self.config.proxy_mode.role());
-        self.events.emit(ClusterEvent::ProxiesCoupled {
-            count: u64::from(changes.coupled),
-        });
-        let (tick, interval) = (self.sim.tick(), self.config.replication_interval.max(1));
-        let count = self.predictions.show(&mut self.sim, tick, interval);
-        self.events.emit(ClusterEvent::ImpulsesPredicted { count });
-    }
-
     /// The world steps.
     fn step(&mut self) {
         self.sim.step();

@@ -28,7 +28,8 @@ impl SeamImpulses {
     /// What contacts across the seam gave this cluster's bodies in the last step: noted for
     /// settling, and sent to each proxy's owner.
     pub(crate) fn report(&mut self, sim: &ClusterSim, config: &ClusterConfig, events: &mut Events) {
-        if !config.coupling {
+        // Without neighbours there is no proxy, so no seam.
+        if !config.coupling || config.neighbours.is_empty() {
             return;
         }
         let tick = sim.tick();

@@ -68,19 +68,27 @@ impl Keyframes {
         self.unchanged
             .resize((self.key_states as usize).div_ceil(8), 0);
         let (key, earlier, bits) = (&self.key, &self.earlier, &mut self.unchanged);
+        // Frames list a cluster's entities in the same order from one to the next, so each is
+        // looked for first where the one before it was found, plus one (no hashing).
+        let mut next = 0;
         states.retain(|state| {
-            let same = state.cluster_id == me
-                && state.tick == tick
-                && earlier.as_ref().is_none_or(|e| e.contains_key(&state.id))
-                && key
-                    .get(&state.id)
-                    .and_then(|&(j, ref then)| {
-                        let still =
-                            then.tick == key_tick && EntityState { tick, ..*then } == *state;
-                        still.then_some(j as usize)
-                    })
-                    .map(|j| bits[j / 8] |= 1 << (j % 8))
-                    .is_some();
+            if state.cluster_id != me || state.tick != tick {
+                return true;
+            }
+            let then = match key.get_index(next) {
+                Some((id, then)) if *id == state.id => Some((next, then)),
+                _ => key.get_full(&state.id).map(|(i, _, then)| (i, then)),
+            };
+            let Some((i, &(j, ref then))) = then else {
+                return true;
+            };
+            next = i + 1;
+            let same = then.tick == key_tick
+                && EntityState { tick, ..*then } == *state
+                && earlier.as_ref().is_none_or(|e| e.contains_key(&state.id));
+            if same {
+                bits[j as usize / 8] |= 1 << (j % 8);
+            }
             !same
         });
         Plan::Delta {

@@ -52,11 +52,8 @@ impl Publisher {
     /// Gathers the entities `me` owns in `sim`, with their states and roles, for this frame.
     pub(crate) fn gather(&mut self, sim: &ClusterSim, me: ClusterId) -> &[(EntityState, BodyRole)] {
         self.owned.clear();
-        self.owned.extend(
-            sim.entities()
-                .filter(|(_, info)| info.owner == me)
-                .filter_map(|(id, info)| sim.state(id).map(|s| (s, info.role))),
-        );
+        debug_assert_eq!(me, sim.config().cluster_id);
+        self.owned.extend(sim.owned_states());
         &self.owned
     }
 
