@@ -16,7 +16,10 @@ use crate::touching;
 use crate::validate;
 use crate::wire::{ClusterId, EntityId, EntityState, IdMap, Motion, PhysicsOp};
 
+mod census;
 mod states;
+
+pub use census::PairCensus;
 
 /// One cluster's world: a Rapier world and a map entity → body.
 ///

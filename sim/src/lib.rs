@@ -77,7 +77,7 @@ mod touching;
 mod validate;
 pub mod wire;
 
-pub use cluster_sim::ClusterSim;
+pub use cluster_sim::{ClusterSim, PairCensus};
 pub use config::SimConfig;
 pub use contacts::ContactEvent;
 pub use coupling::{CouplingChanges, SeamImpulse};

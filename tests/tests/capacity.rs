@@ -66,11 +66,32 @@ fn capacity_finds_a_size_and_its_table_agrees() {
         assert_eq!(common.layers, report.common_layers);
     }
     assert_eq!(report.common_layers, report.rows[0].layers);
+    // seam's probes say where its pods' CPU went, phase by phase (plain Rapier's do not):
+    // every phase, in order, none negative, Rapier's step above zero; and how much of
+    // the narrow phase had a proxy, sampled (in 60 ticks `grid`'s balls may not touch yet).
+    for probe in &report.probes {
+        if probe.row.starts_with("seam") {
+            let names: Vec<&str> = probe.phases_ms.iter().map(|(n, _)| n.as_str()).collect();
+            let all: Vec<&str> = seam_proxy::Phase::ALL.iter().map(|p| p.name()).collect();
+            assert_eq!(names, all, "{probe:?}");
+            assert!(
+                probe.phases_ms.iter().all(|(_, ms)| *ms >= 0.0),
+                "{probe:?}"
+            );
+            let step = probe.phases_ms[6].1;
+            assert!(step > 0.0, "{probe:?}");
+            let (pairs, contacts) = probe.proxy_shares.expect("the narrow phase sampled");
+            assert!((0.0..=1.0).contains(&pairs) && (0.0..=1.0).contains(&contacts));
+        } else {
+            assert!(probe.phases_ms.is_empty() && probe.proxy_shares.is_none());
+        }
+    }
     // Both forms of the table name every row.
     let text = capacity::document(&report).text();
     for row in &report.rows {
         assert!(text.contains(&row.row), "{text}");
     }
+    assert!(text.contains("Where seam's CPU goes"), "{text}");
 }
 
 #[test]

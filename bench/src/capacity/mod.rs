@@ -155,6 +155,13 @@ pub struct Probe {
     pub cpu_p50_ns: u64,
     /// Whether the size holds the rate.
     pub holds: bool,
+    /// seam: mean thread CPU time per tick of each phase, ms, summed over the pods.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub phases_ms: Vec<(String, f64)>,
+    /// seam: the shares of Rapier's narrow-phase pairs, and of contact points, that involve
+    /// a proxy (every pod's samples together).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub proxy_shares: Option<(f64, f64)>,
 }
 
 /// A row's result.
@@ -370,6 +377,8 @@ impl Prober<'_> {
             wall_p99_ns: wall.p99_ns,
             cpu_p50_ns: summary(&timings.cpu_ns).p50_ns,
             holds: false,
+            phases_ms: Vec::new(),
+            proxy_shares: None,
         })
     }
 
@@ -402,8 +411,38 @@ impl Prober<'_> {
             wall_p99_ns: pods.iter().map(|p| p.tick_time.p99_ns).max().unwrap_or(0),
             cpu_p50_ns: pods.iter().map(|p| p.tick_cpu.p50_ns).sum(),
             holds: false,
+            phases_ms: phases_summed(pods),
+            proxy_shares: proxy_shares(pods),
         })
     }
+}
+
+/// Each phase's mean CPU per tick, ms, summed over `pods`.
+fn phases_summed(pods: &[crate::run::PodSummary]) -> Vec<(String, f64)> {
+    let mut summed: Vec<(String, f64)> = Vec::new();
+    for pod in pods {
+        for (i, (phase, ms)) in pod.phases_ms.iter().enumerate() {
+            match summed.get_mut(i) {
+                Some((_, sum)) => *sum += ms,
+                None => summed.push((phase.clone(), *ms)),
+            }
+        }
+    }
+    summed
+}
+
+/// The shares of narrow-phase pairs and of contact points with a proxy, over every pod.
+fn proxy_shares(pods: &[crate::run::PodSummary]) -> Option<(f64, f64)> {
+    let sum = |f: fn(&crate::node::CensusMean) -> f64| pods.iter().map(|p| f(&p.pairs)).sum();
+    let (pairs, contacts): (f64, f64) = (sum(|c| c.pairs), sum(|c| c.contacts));
+    let with = |part: f64, whole: f64| if whole > 0.0 { part / whole } else { 0.0 };
+    let sampled = pods.iter().any(|p| p.pairs.samples > 0);
+    sampled.then(|| {
+        (
+            with(sum(|c| c.pairs_with_proxy), pairs),
+            with(sum(|c| c.contacts_with_proxy), contacts),
+        )
+    })
 }
 
 /// `values` (ns) as the other reports summarise them.

@@ -84,5 +84,40 @@ pub fn document(report: &CapacityReport) -> Document {
          per tick there (seam: the slowest pod's wall, the pods' CPU summed); then at the first \
          row's largest size, wall and CPU, and CPU against the first row's there.",
     );
+    let phased: Vec<(&RowResult, &Probe)> = (report.rows.iter())
+        .filter_map(|r| r.at_common.as_ref().map(|p| (r, p)))
+        .filter(|(_, p)| !p.phases_ms.is_empty())
+        .collect();
+    if let Some((_, probe)) = phased.first() {
+        doc.line("");
+        doc.line(format!(
+            "Where seam's CPU goes at {common}: thread CPU per tick by phase, mean ms, pods summed"
+        ));
+        let names: Vec<&str> = probe.phases_ms.iter().map(|(n, _)| n.as_str()).collect();
+        let mut columns = vec![("row", Align::Left)];
+        columns.extend(names.iter().map(|n| (*n, Align::Right)));
+        columns.extend([
+            ("sum", Align::Right),
+            ("pairs with proxy", Align::Right),
+            ("contacts with proxy", Align::Right),
+        ]);
+        let mut phases = Table::new(&columns);
+        for (row, probe) in phased {
+            let mut cells = vec![row.row.clone()];
+            cells.extend(probe.phases_ms.iter().map(|(_, v)| format!("{v:.2}")));
+            let sum: f64 = probe.phases_ms.iter().map(|(_, v)| v).sum();
+            cells.push(format!("{sum:.2}"));
+            let (pairs, contacts) = probe.proxy_shares.unwrap_or_default();
+            cells.push(format!("{:.0} %", pairs * 100.0));
+            cells.push(format!("{:.0} %", contacts * 100.0));
+            phases.row(cells);
+        }
+        doc.table(phases);
+        doc.line(
+            "phases as `seam run` prints them (receive: frames taken in; exchange: routed ops \
+             before the step; publish: the policy asked, frames encoded and sent); pairs: the \
+             share of Rapier's narrow-phase pairs, and of its contact points, that have a proxy",
+        );
+    }
     doc
 }

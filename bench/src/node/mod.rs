@@ -15,6 +15,7 @@
 //! library logs (neighbours taken for dead and back, Redis outages), and unless `--quiet` a
 //! human progress line four times a second.
 
+mod phases;
 mod report;
 
 use std::io::Write;
@@ -33,6 +34,7 @@ use crate::latency::LatencyRecorder;
 use crate::ledger::LedgerFile;
 use crate::pod::{Part, Pod, PodSettings};
 use crate::record::{EntityTable, PodRecorder};
+pub use phases::{CENSUS_EVERY, CensusMean, PhaseTally, PhaseTime};
 pub use report::{NodeLine, NodeProgress, NodeReport, TransportCounts};
 
 /// How neighbour entities are modelled, as a command-line value.
@@ -361,6 +363,7 @@ pub fn run_node(
     let mut owners = crate::owners::OwnerLog::default();
     let started = Instant::now();
     let mut tally = Tally::new(&pod);
+    pod.cluster_mut().time_phases(true);
     // The schedule stops the policy's hand-offs in the last ticks, so that those under way
     // are taken before the neighbours stop (see `Cluster::stop_policy_handoffs`).
     while let Some(due) = schedule
@@ -387,6 +390,10 @@ pub fn run_node(
         tally
             .tick_cpu
             .record(thread_cpu_ns().saturating_sub(cpu_begun));
+        tally.phases.record(&pod.cluster().phase_cpu());
+        if due.tick.is_multiple_of(CENSUS_EVERY) {
+            tally.phases.sample(&pod.cluster().sim().pair_census());
+        }
         if schedule.period_ns().is_some_and(|p| took > p) {
             tally.overruns += 1;
         }
@@ -502,6 +509,7 @@ fn write_metrics(path: &std::path::Path, report: &NodeReport) -> BenchResult<()>
 struct Tally {
     tick_time: LatencyRecorder,
     tick_cpu: LatencyRecorder,
+    phases: PhaseTally,
     record_time: LatencyRecorder,
     overruns: u64,
     max_lag_ns: u64,
@@ -515,6 +523,7 @@ impl Tally {
         Self {
             tick_time: LatencyRecorder::default(),
             tick_cpu: LatencyRecorder::default(),
+            phases: PhaseTally::default(),
             record_time: LatencyRecorder::default(),
             overruns: 0,
             max_lag_ns: 0,
@@ -640,6 +649,7 @@ fn node_report(
         start_late_ns,
         tick_time: tally.tick_time,
         tick_cpu: tally.tick_cpu,
+        phases: tally.phases,
         overruns: tally.overruns,
         max_lag_ns: tally.max_lag_ns,
         entities_at_start: pod.owned_at_start(),

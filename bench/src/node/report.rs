@@ -139,6 +139,10 @@ pub struct NodeReport {
     /// core that another process holds.
     #[serde(default)]
     pub tick_cpu: LatencyRecorder,
+    /// Thread CPU time per tick by phase, and Rapier's narrow phase sampled every
+    /// [`CENSUS_EVERY`](super::CENSUS_EVERY) ticks.
+    #[serde(default)]
+    pub phases: super::PhaseTally,
     /// Ticks that took longer than the tick period.
     pub overruns: u64,
     /// Largest delay of a tick's start behind its schedule, ns.

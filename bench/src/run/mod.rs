@@ -16,6 +16,7 @@
 mod hosts;
 mod netns;
 pub mod ownership;
+mod phases;
 mod report;
 
 use std::ffi::OsString;

@@ -43,6 +43,10 @@ pub struct PodSummary {
     pub events: EventCounts,
     /// Routed ops this pod applied.
     pub ops: OpStagesSummary,
+    /// Mean thread CPU time per tick of each phase, ms, in the order a tick runs them.
+    pub phases_ms: Vec<(String, f64)>,
+    /// Rapier's narrow phase, averaged over samples: how many pairs involve proxies.
+    pub pairs: crate::node::CensusMean,
     /// Time its recorder took each tick, ns (with `--record`; part of `tick_time`).
     pub record_time: Option<LatencySummary>,
     /// Bytes it recorded.
@@ -144,6 +148,10 @@ impl RunReport {
                 transport_stats: r.transport_stats,
                 events: r.events,
                 ops: r.ops.summary(),
+                phases_ms: (r.phases.means().into_iter())
+                    .map(|(phase, ns)| (phase, ns / 1e6))
+                    .collect(),
+                pairs: r.phases.census_mean(),
                 record_time: r.record_time.as_ref().map(LatencyRecorder::summary),
                 recorded_bytes: r.recorded_bytes,
             });
@@ -185,6 +193,11 @@ pub fn document(report: &RunReport) -> Document {
          implausible tick)",
     );
     doc.line(bytes_line(report));
+    if report.pods.iter().any(|p| !p.phases_ms.is_empty()) {
+        doc.line("");
+        doc.table(super::phases::phases_table(report));
+        doc.line(super::phases::PHASES_NOTE);
+    }
     let recording = recording_line(report);
     if !recording.is_empty() {
         doc.line(recording);

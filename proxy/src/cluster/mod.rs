@@ -38,10 +38,13 @@ mod bodies;
 mod catch_up;
 mod coupling;
 mod exchange;
+mod phases;
 mod publish;
 mod receive;
 mod tick;
 mod warnings;
+
+pub use phases::{Phase, PhaseCpu};
 
 /// How long before its last tick a pod stops the policy's hand-offs (see
 /// [`Cluster::stop_policy_handoffs`]), seconds: pods on one schedule are a few ticks apart,
@@ -96,6 +99,8 @@ pub struct Cluster {
     host_ns: u64,
     /// How far ahead a neighbour's hand-off or claim is held, behind after a stall.
     catch_up: catch_up::CatchUp,
+    /// The thread CPU time of each phase, when measured (see [`Cluster::time_phases`]).
+    phases: phases::PhaseClock,
     /// Ticking free-running (`tick`, `wait`) rather than in lock-step: the inbox then keeps
     /// one replication frame per neighbour.
     free_running: bool,
@@ -195,6 +200,7 @@ impl Cluster {
             ),
             host_ns: monotonic_ns(),
             catch_up: catch_up::CatchUp::default(),
+            phases: phases::PhaseClock::default(),
             free_running: false,
             leaving: false,
             begun: false,

@@ -39,13 +39,16 @@ impl Cluster {
     }
 
     /// Publishes this tick's replication frame (every `replication_interval` ticks, with any
-    /// hand-offs) and one events frame per neighbour. A cluster without neighbours (one world
-    /// of its own) publishes nothing: no cluster proxies its bodies or takes them over.
+    /// hand-offs) and one events frame per neighbour. A cluster alone in its world (no
+    /// neighbours, no other cluster on the world map: a one-world server) publishes no
+    /// replication: no cluster proxies its bodies or takes them over. One without neighbours
+    /// in a larger world still does: a cluster it does not list may list it.
     pub(super) fn publish(&mut self) -> Result<(), ClusterError> {
         let tick = self.sim.tick();
-        if tick.is_multiple_of(self.config.replication_interval)
-            && !self.config.neighbours.is_empty()
-        {
+        let me = self.config.cluster_id;
+        let alone = self.config.neighbours.is_empty()
+            && self.config.world.iter().all(|cluster| cluster.id == me);
+        if tick.is_multiple_of(self.config.replication_interval) && !alone {
             self.publish_replication(tick)?;
         }
         for i in 0..self.config.neighbours.len() {

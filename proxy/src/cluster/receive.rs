@@ -1,7 +1,9 @@
 //! Frames in: everything the transport holds taken into the inbox, with malformed, replayed and
 //! implausible frames counted and dropped, and each sender's liveness noted.
 
-use super::Cluster;
+use std::time::Duration;
+
+use super::{Cluster, Phase};
 use crate::clock::monotonic_ns;
 use crate::error::ClusterError;
 use crate::events::{ClusterEvent, FrameRefusal};
@@ -9,6 +11,24 @@ use crate::inbox::{Frame, FrameKind, Refused, decode_frame};
 use crate::neighbours::Incarnation;
 
 impl Cluster {
+    /// Waits up to `timeout` for a frame to arrive, sleeping on the transport's wake-up rather
+    /// than spinning, and keeps it (with anything else that has arrived) for the next tick.
+    /// Returns whether anything arrived. Free-running pods call this between ticks, so frames
+    /// are taken off the transport as they come and stamped "received" when they arrive.
+    pub fn wait(&mut self, timeout: Duration) -> Result<bool, ClusterError> {
+        self.free_running = true;
+        let Some(message) = self.transport.receive_timeout(timeout)? else {
+            return Ok(false);
+        };
+        let cpu = self.phases.now();
+        let received_ns = monotonic_ns();
+        let frame = decode_frame(message.channel, message.payload);
+        self.take_in(frame, received_ns);
+        self.drain()?;
+        self.phases.add_since(Phase::Receive, cpu);
+        Ok(true)
+    }
+
     /// Moves everything the transport holds into the inbox.
     pub(super) fn drain(&mut self) -> Result<(), ClusterError> {
         while let Some(message) = self.transport.try_receive()? {

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use seam_sim::{PhysicsHandle, TickContext};
 
-use super::Cluster;
+use super::{Cluster, Phase};
 use crate::clock::monotonic_ns;
 use crate::contacts::HALF_WAITS_TICKS;
 use crate::error::ClusterError;
@@ -42,6 +42,7 @@ impl Cluster {
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
         self.free_running = true;
+        self.phases.start();
         self.note_host_time(now_ns);
         self.drain()?;
         self.wait_step_free()?;
@@ -82,6 +83,7 @@ impl Cluster {
             ));
         }
         self.free_running = false;
+        self.phases.start();
         self.host_ns = monotonic_ns();
         let tick = self.sim.tick();
         if tick > 0 {
@@ -131,22 +133,6 @@ impl Cluster {
         Ok(())
     }
 
-    /// Waits up to `timeout` for a frame to arrive, sleeping on the transport's wake-up rather
-    /// than spinning, and keeps it (with anything else that has arrived) for the next tick.
-    /// Returns whether anything arrived. Free-running pods call this between ticks, so frames
-    /// are taken off the transport as they come and stamped "received" when they arrive.
-    pub fn wait(&mut self, timeout: Duration) -> Result<bool, ClusterError> {
-        self.free_running = true;
-        let Some(message) = self.transport.receive_timeout(timeout)? else {
-            return Ok(false);
-        };
-        let received_ns = monotonic_ns();
-        let frame = decode_frame(message.channel, message.payload);
-        self.take_in(frame, received_ns);
-        self.drain()?;
-        Ok(true)
-    }
-
     /// A tick on the frames the caller gathered, every phase in order up to the exchange (the
     /// caller then waits for the neighbours' exchange frames and calls `finish_tick`).
     fn run_until_exchange(
@@ -155,6 +141,7 @@ impl Cluster {
         user: impl FnOnce(&TickContext<'_>, &mut PhysicsHandle<'_>),
     ) -> Result<(), ClusterError> {
         self.begun = true;
+        self.phases.lap(Phase::Receive);
         self.keep_claim()?;
         self.handoffs.new_tick();
         self.reconcile(frames.replication);
@@ -165,12 +152,15 @@ impl Cluster {
             &mut self.events,
         );
         self.take_leaving(&frames.events);
+        self.phases.lap(Phase::Reconcile);
         self.surface_contacts(&frames.events);
         self.run_user(user);
+        self.phases.lap(Phase::User);
         self.settle_seam(&frames.events);
         self.take_answers(&frames.events);
         self.apply_routed(&frames.events);
         self.resend_due();
+        self.phases.lap(Phase::Settle);
         self.send_exchange()
     }
 
@@ -178,11 +168,17 @@ impl Cluster {
     fn finish_tick(&mut self) -> Result<(), ClusterError> {
         self.begun = false;
         self.apply_exchanged();
+        self.phases.lap(Phase::Exchange);
         self.couple();
+        self.phases.lap(Phase::Couple);
         self.step();
+        self.phases.lap(Phase::Step);
         self.report();
+        self.phases.lap(Phase::Report);
         self.publish()?;
         self.warn_dropped_ops();
+        self.phases.lap(Phase::Publish);
+        self.phases.finish();
         self.events.emit(ClusterEvent::Ticked);
         Ok(())
     }
