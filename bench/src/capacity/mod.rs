@@ -34,6 +34,11 @@ use serde::Serialize;
 use crate::error::{BenchError, BenchResult};
 use crate::run::{RunPlan, run_pods};
 
+/// The scene's bodies as one plain Rapier world, as the anchor rows step it.
+pub fn anchor_world(scene: &crate::scene::Scene) -> BenchResult<seam_anchor::WorldSpec> {
+    anchor::world_of(scene)
+}
+
 /// One configuration measured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Row {
