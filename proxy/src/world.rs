@@ -49,6 +49,14 @@ impl Region {
         }
     }
 
+    /// The smallest region holding both.
+    pub fn union(&self, other: &Region) -> Region {
+        Region {
+            min: [0, 1, 2].map(|k| self.min[k].min(other.min[k])),
+            max: [0, 1, 2].map(|k| self.max[k].max(other.max[k])),
+        }
+    }
+
     /// Whether the two boxes touch or overlap.
     pub fn overlaps(&self, other: &Region) -> bool {
         (0..3).all(|i| self.min[i] <= other.max[i] && other.min[i] <= self.max[i])

@@ -386,17 +386,8 @@ pub fn run_node(
             record_tick(recorder, &pod, begun, &mut tally)?;
         }
         let took = begun.elapsed().as_nanos() as u64;
-        tally.tick_time.record(took);
-        tally
-            .tick_cpu
-            .record(thread_cpu_ns().saturating_sub(cpu_begun));
-        tally.phases.record(&pod.cluster().phase_cpu());
-        if due.tick.is_multiple_of(CENSUS_EVERY) {
-            tally.phases.sample(&pod.cluster().sim().pair_census());
-        }
-        if schedule.period_ns().is_some_and(|p| took > p) {
-            tally.overruns += 1;
-        }
+        let cpu = thread_cpu_ns().saturating_sub(cpu_begun);
+        tally.ticked(&pod, due.tick, (took, cpu), schedule.period_ns());
         progress_due(args, &pod, due.tick + 1, ticks, &mut tally, out)?;
     }
     // Stopping on purpose: a neighbour still ticking (behind the schedule, or running
@@ -530,6 +521,23 @@ impl Tally {
             proxies_peak: 0,
             last_progress: Instant::now(),
             ops_reported: op_counts(&pod.cluster().stats()),
+        }
+    }
+}
+
+impl Tally {
+    /// Counts tick `tick`, which took `took` ns of wall time and `cpu` ns of the thread's CPU
+    /// (an overrun if longer than `period_ns`), with its phases, and a sample of the narrow
+    /// phase every [`CENSUS_EVERY`] ticks (taken after the tick's CPU was read).
+    fn ticked(&mut self, pod: &Pod, tick: u64, (took, cpu): (u64, u64), period_ns: Option<u64>) {
+        self.tick_time.record(took);
+        self.tick_cpu.record(cpu);
+        self.phases.record(&pod.cluster().phase_cpu());
+        if tick.is_multiple_of(CENSUS_EVERY) {
+            self.phases.sample(&pod.cluster().sim().pair_census());
+        }
+        if period_ns.is_some_and(|p| took > p) {
+            self.overruns += 1;
         }
     }
 }

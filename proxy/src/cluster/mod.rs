@@ -10,9 +10,12 @@
 //!   `run_until_exchange` and `finish_tick`, the list of phases.
 //! - `exchange` — the exchange before the step: this tick's ops and own writes out, the
 //!   neighbours' waited for and applied.
-//! - `receive` — frames taken off the transport into the inbox.
+//! - `receive` — frames taken off the transport into the inbox (and `wait` between ticks).
+//! - `catch_up` — how far ahead a hand-off or claim is held while catching up after a stall.
+//! - `coupling` — proxies a body here may touch made dynamic for the step.
 //! - `publish` — this tick's frames out: replication (with the policy's hand-offs) and one
 //!   physics-events frame per neighbour.
+//! - `phases` — the thread CPU time of each phase, when measured.
 //! - `warnings` — what is logged of what is counted: refused frames and dropped ops.
 
 use seam_sim::wire::{ClusterId, EntityId, PhysicsEventsFrame, Stage};

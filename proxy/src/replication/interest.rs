@@ -105,6 +105,9 @@ pub(crate) struct Interest {
     around_bodies: Vec<Region>,
     /// `around_bodies` filed in a grid, so that a query looks only at the rooms near it.
     rooms: BoxGrid,
+    /// The box around every room in `around_bodies` (`None` without any): most neighbour
+    /// entities lie outside it, and a query for them ends there.
+    rooms_bound: Option<Region>,
     /// Regions watched on request, each until a tick (see `Cluster::watch`).
     watched: Vec<(Region, u64)>,
 }
@@ -116,6 +119,7 @@ impl Interest {
             around_region: Some(region.grown(spread)),
             around_bodies: Vec::new(),
             rooms: BoxGrid::new(ROOM_GRID_CELL_M),
+            rooms_bound: None,
             watched: Vec::new(),
         }
     }
@@ -141,12 +145,14 @@ impl Interest {
     ) {
         self.around_bodies.clear();
         self.rooms.clear();
+        self.rooms_bound = None;
         for state in owned {
             let room = extent(state, sweep_s).grown(spread);
             if !self.around_region.is_some_and(|r| r.contains(&room)) {
                 self.rooms
                     .insert(self.around_bodies.len() as u32, room.min, room.max);
                 self.around_bodies.push(room);
+                self.rooms_bound = Some(self.rooms_bound.map_or(room, |b| b.union(&room)));
             }
         }
         self.rooms.seal();
@@ -155,9 +161,10 @@ impl Interest {
     /// Whether a neighbour entity with this extent is modelled.
     pub(crate) fn covers(&self, extent: &Region) -> bool {
         self.around_region.is_some_and(|r| r.overlaps(extent))
-            || self.rooms.any(extent.min, extent.max, |i| {
-                self.around_bodies[i as usize].overlaps(extent)
-            })
+            || (self.rooms_bound.is_some_and(|b| b.overlaps(extent))
+                && self.rooms.any(extent.min, extent.max, |i| {
+                    self.around_bodies[i as usize].overlaps(extent)
+                }))
             || self.watched.iter().any(|(r, _)| r.overlaps(extent))
     }
 }

@@ -209,9 +209,11 @@ impl Reconcile<'_> {
                 Ok(())
             }
             // A state from before this cluster's own later hand-off of the entity (a pod
-            // catching up after a stall): stale, no proxy made of it.
-            None if self.handoffs.released_after(state.id, state.epoch) => Ok(()),
-            None if state.cluster_id == from && self.visible(state) => {
+            // catching up after a stall) is stale: no proxy is made of it.
+            None if state.cluster_id == from
+                && self.visible(state)
+                && !self.handoffs.released_after(state.id, state.epoch) =>
+            {
                 listed.insert(state.id, ());
                 self.spawn(
                     state,
