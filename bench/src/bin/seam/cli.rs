@@ -30,8 +30,11 @@ pub(crate) enum Command {
     /// Starts one `seam node` per cluster of the scene on this host, over shared memory unless
     /// told otherwise (no server needed), shows progress, and prints per pod: ticks, tick-time
     /// percentiles and overruns, entities and proxies, ops routed and applied, contacts sent
-    /// and received, hand-offs and drops; and for all pods the routed-op stages (queue,
-    /// transport, apply, whole) in µs and ticks. Ctrl-C stops the pods, which still report.
+    /// and received, hand-offs and drops; where each pod's thread CPU went, phase by phase
+    /// (receive, reconcile, user, settle, exchange, couple, step, report, publish), and how
+    /// many of Rapier's pairs and contacts involve proxies; and for all pods the routed-op
+    /// stages (queue, transport, apply, whole) in µs and ticks. Ctrl-C stops the pods, which
+    /// still report.
     Run(run::RunArgs),
     /// Compare one setting against the single-world reference: accuracy and cost.
     ///
@@ -95,7 +98,9 @@ pub(crate) enum Command {
     /// probe, then per row the largest size and its bodies against the first row's, wall and
     /// CPU time per tick (seam: the slowest pod's wall, the pods' thread CPU summed, so
     /// contention shows apart from work), and CPU at the first row's largest size against
-    /// the first row's; writes OUT/capacity_SCENE.svg and .png.
+    /// the first row's; then, for seam's rows there, each phase's thread CPU summed over the
+    /// pods and the share of Rapier's pairs and contacts with a proxy; writes
+    /// OUT/capacity_SCENE.svg and .png.
     Capacity(capacity::CapacityArgs),
     /// Look at a recording: a page to scrub through, a still, or the page's own timings.
     ///
