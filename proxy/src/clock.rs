@@ -11,7 +11,7 @@ pub fn monotonic_ns() -> u64 {
 }
 
 /// CPU time this thread has used, ns (`CLOCK_THREAD_CPUTIME_ID`).
-pub(crate) fn thread_cpu_ns() -> u64 {
+pub fn thread_cpu_ns() -> u64 {
     let t = rustix::time::clock_gettime(rustix::time::ClockId::ThreadCPUTime);
     t.tv_sec as u64 * 1_000_000_000 + t.tv_nsec as u64
 }

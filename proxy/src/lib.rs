@@ -298,7 +298,7 @@ pub use authority::{
 pub use bridge::{Bridge, BridgeRoutes, DirectionCounters, DirectionStats};
 pub use channels::{physics_events, replication};
 pub use checks::{ConfigError, name_ok};
-pub use clock::monotonic_ns;
+pub use clock::{monotonic_ns, thread_cpu_ns};
 pub use cluster::{Cluster, DRAIN_S, Phase, PhaseCpu};
 pub use config::{ClusterConfig, DEFAULT_KEYFRAME_TICKS, ProxyMode};
 pub use contacts::{HALF_WAITS_TICKS, MERGE_WINDOW_TICKS};

@@ -372,7 +372,7 @@ pub fn run_node(
     {
         tally.max_lag_ns = tally.max_lag_ns.max(due.lag_ns);
         let begun = Instant::now();
-        let cpu_begun = thread_cpu_ns();
+        let cpu_begun = seam_proxy::thread_cpu_ns();
         pod.tick().map_err(fail)?;
         if let Some(ledger) = &mut ledger {
             ledger
@@ -386,7 +386,7 @@ pub fn run_node(
             record_tick(recorder, &pod, begun, &mut tally)?;
         }
         let took = begun.elapsed().as_nanos() as u64;
-        let cpu = thread_cpu_ns().saturating_sub(cpu_begun);
+        let cpu = seam_proxy::thread_cpu_ns().saturating_sub(cpu_begun);
         tally.ticked(&pod, due.tick, (took, cpu), schedule.period_ns());
         progress_due(args, &pod, due.tick + 1, ticks, &mut tally, out)?;
     }
@@ -724,10 +724,4 @@ fn ledger_entries(events: &[seam_proxy::TickEvent]) -> Vec<seam_proxy::LedgerEnt
         .iter()
         .filter_map(|e| seam_proxy::LedgerEntry::from_event(e.tick, &e.event))
         .collect()
-}
-
-/// CPU time this thread has spent, ns.
-fn thread_cpu_ns() -> u64 {
-    let t = rustix::time::clock_gettime(rustix::time::ClockId::ThreadCPUTime);
-    t.tv_sec as u64 * 1_000_000_000 + t.tv_nsec as u64
 }
