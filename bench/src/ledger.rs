@@ -69,6 +69,9 @@ pub struct Life {
     pub path: PathBuf,
     /// Killed (not stopped at the end of the run), after the last tick it was seen to finish.
     pub killed_after: Option<u64>,
+    /// The world ticks it was stopped from and continued at, each stop of it (`u64::MAX` for
+    /// one not yet over).
+    pub stopped: Vec<(u64, u64)>,
 }
 
 impl Life {
@@ -488,6 +491,7 @@ mod tests {
         let life = |path: &PathBuf, killed_after| Life {
             path: path.clone(),
             killed_after,
+            stopped: Vec::new(),
         };
         let lives = [
             life(&issuer, None),

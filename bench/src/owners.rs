@@ -13,6 +13,14 @@
 //! - by two, one of them an adopter of a pod that was only stopped (it woke still owning its
 //!   copy, and the adopter's copy stops when it hands it back): **across a stall**, counted
 //!   apart;
+//! - by none, between a hand-off made across a stop and the adoption that ends it: **handed
+//!   across a stall**, counted apart. A stopped pod runs the ticks it missed as it catches up,
+//!   and a hand-off it makes in them reaches a neighbour that has meanwhile taken it for dead
+//!   and adopted the body from its last picture, so the hand-off is never taken (the adopter
+//!   owns the body already) and the adopter's copy counts from its adoption; a hand-off to a
+//!   pod stopped before it read it is never taken either, and its giver takes it back when it
+//!   takes the pod for dead. Either way the body sat in a stalled pod, as a killed pod's bodies
+//!   await adoption;
 //! - by none otherwise: **unowned**, a lost body while it lasts;
 //! - by two otherwise: **owned twice**.
 //!
@@ -134,6 +142,9 @@ pub struct OwnerCheck {
     pub awaiting_adoption: u64,
     /// Owned by a stopped pod and its adopter at once.
     pub across_a_stall: u64,
+    /// Owned by none between a hand-off made while its giver or its taker was stopped and the
+    /// adoption (or taking back) that ends it.
+    pub handed_across_a_stall: u64,
     /// Owned by none otherwise: lost while it lasts.
     pub unowned: u64,
     /// Owned by two otherwise.
@@ -319,6 +330,10 @@ fn walk(id: u128, spans: &[Span], run: &Run<'_>, out: &mut OwnerCheck) {
                 out.awaiting_adoption += 1;
                 None
             }
+            0 if handed_across_a_stall(spans, run, tick) => {
+                out.handed_across_a_stall += 1;
+                None
+            }
             0 => {
                 out.unowned += 1;
                 Some("unowned")
@@ -377,6 +392,40 @@ fn after_a_kill(spans: &[Span], run: &Run<'_>, tick: u64) -> bool {
         })
 }
 
+/// Ticks before a pod's stop a hand-off to it may still be unread when it stops.
+const STOP_SLACK: u64 = 5;
+
+/// Whether `tick` falls between a hand-off made across a stall and the adoption that ends it:
+/// the latest span to end before `tick` ended in a hand-off while its giver was stopped (a tick
+/// it ran catching up) or its taker was, and the next span to begin is an adoption (the
+/// taker's, of the stalled giver's body, or the giver's, taking back what a stalled taker
+/// never took).
+fn handed_across_a_stall(spans: &[Span], run: &Run<'_>, tick: u64) -> bool {
+    let Some(last) = spans.iter().filter(|s| s.to < tick).max_by_key(|s| s.to) else {
+        return false;
+    };
+    let Some(to) = last.handed_to else {
+        return false;
+    };
+    let adopted_next = spans
+        .iter()
+        .filter(|s| s.from >= tick)
+        .min_by_key(|s| s.from)
+        .is_some_and(|s| s.how == How::Adopted);
+    let stopped_then = |life: &Life| {
+        life.stopped
+            .iter()
+            .any(|&(from, until)| from <= last.to + STOP_SLACK && last.to <= until)
+    };
+    adopted_next
+        && (stopped_then(&run.lives[last.life])
+            || run
+                .lives
+                .iter()
+                .zip(run.clusters)
+                .any(|(life, &cluster)| cluster == Some(to) && stopped_then(life)))
+}
+
 fn example(
     id: u128,
     (from, to, kind): (u64, u64, &'static str),
@@ -416,7 +465,11 @@ mod tests {
         text += &lines.join("\n");
         text.push('\n');
         std::fs::write(&path, text).expect("write");
-        Life { path, killed_after }
+        Life {
+            path,
+            killed_after,
+            stopped: Vec::new(),
+        }
     }
 
     /// A directory of the test's own.
@@ -498,6 +551,69 @@ mod tests {
         let alive = life(&dir, "east", &[], None);
         let found = check(&[alive, giver], 100).expect("check");
         assert_eq!(found.unowned, 19, "{found:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_hand_off_across_a_stop_awaits_its_adoption_and_without_the_stop_it_is_a_loss() {
+        let dir = dir("stall");
+        let e = id(13);
+        let cluster = |name: &str| {
+            name.bytes()
+                .fold(0u128, |h, b| h * 31 + u128::from(b) % 7 + 1)
+        };
+        let (west, east) = (cluster("west"), cluster("east"));
+        // West, stopped at tick 100 until 160, hands the body on at 130 as it catches up; east
+        // took west for dead and adopted it at 162, and hands it back at 163.
+        let mut giver = life(
+            &dir,
+            "west",
+            &[
+                &format!("owner + {e} 1 own"),
+                &format!("owner - {e} 130 {east:032x}"),
+                &format!("owner + {e} 164 taken"),
+            ],
+            None,
+        );
+        let adopter = life(
+            &dir,
+            "east",
+            &[
+                &format!("owner + {e} 162 adopted"),
+                &format!("owner - {e} 163 {west:032x}"),
+            ],
+            None,
+        );
+        giver.stopped.push((100, 160));
+        let found = check(&[giver.clone(), adopter.clone()], 200).expect("check");
+        assert!(found.holds(), "{found:?}");
+        assert_eq!(found.handed_across_a_stall, 31, "{found:?}");
+        // No stop: the same gap is a loss.
+        giver.stopped.clear();
+        let found = check(&[giver, adopter.clone()], 200).expect("check");
+        assert_eq!(found.unowned, 31, "{found:?}");
+        // West hands it at 90 to east, stopped at 93 until 153 before reading it, and takes it
+        // back at 125 when it takes east for dead.
+        let giver = life(
+            &dir,
+            "west",
+            &[
+                &format!("owner + {e} 1 own"),
+                &format!("owner - {e} 90 {east:032x}"),
+                &format!("owner + {e} 125 adopted"),
+            ],
+            None,
+        );
+        let mut taker = life(&dir, "east", &[], None);
+        taker.stopped.push((93, 153));
+        let found = check(&[giver.clone(), taker], 200).expect("check");
+        assert!(found.holds(), "{found:?}");
+        assert_eq!(found.handed_across_a_stall, 34, "{found:?}");
+        // Stopped long after the hand-off: the taker had time to take it.
+        let mut late = life(&dir, "east", &[], None);
+        late.stopped.push((110, 170));
+        let found = check(&[giver, late], 200).expect("check");
+        assert_eq!(found.unowned, 34, "{found:?}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -28,6 +28,7 @@ seam_tests::backend_tests!(
         flip_only_from_the_owner,
         op_after_hand_off_is_forwarded_once,
         forwarded_op_is_never_forwarded_again,
+        forwarded_op_applied_by_its_forwarder_when_the_entity_comes_back,
         scenery_is_loaded_everywhere_and_never_replicated,
         only_the_region_is_modelled,
         custom_proxy_hook_moves_proxies,
@@ -553,6 +554,53 @@ fn forwarded_op_is_never_forwarded_again(ctx: &TestContext) {
         "A sent it again, to C; C's op answered by A, A's resend by C: {stats:?}"
     );
     let v = clusters[2].sim().state(entity.id).expect("C's body").linvel;
+    assert!((v[0] - 1.0).abs() < 1e-3, "Δv = J/m, once: {v:?}");
+    assert!(clusters.iter().all(|c| c.ops_unanswered() == 0));
+}
+
+/// A forwarder that finds the entity its own when the op comes back "not here" applies it: it
+/// closed the op's name when it took the op on, which must not read as "applied here
+/// already" (in `seam chaos`, a pod catching up after a stall forwarded a write, got the
+/// entity back, and dropped the write unsaid as a repeat).
+fn forwarded_op_applied_by_its_forwarder_when_the_entity_comes_back(ctx: &TestContext) {
+    let (mut clusters, ids, entity) = trio_with_a_ball(ctx, |c| c.exchange = false);
+    let mass = 1000.0 * 4.0 / 3.0 * std::f32::consts::PI * 0.125;
+    // A hands it to B while C, still seeing A as the owner, writes to it; B hands everything
+    // it owns straight back to A, so A's forward finds it gone and A owns it again.
+    clusters[1].set_authority_policy(Box::new(HandEverythingTo(ids[0])));
+    clusters[0]
+        .transfer_authority(entity.id, ids[1])
+        .expect("hand over");
+    lockstep_round(&mut clusters, TIMEOUT, |index, _, physics| {
+        if index == 2 {
+            assert_eq!(
+                physics.apply_impulse(entity.id, [mass, 0.0, 0.0]),
+                Ok(WriteOutcome::Routed)
+            );
+        }
+    })
+    .expect("round");
+    rounds(&mut clusters, 8);
+    assert_eq!(
+        clusters[0].sim().info(entity.id).map(|i| i.owner),
+        Some(ids[0]),
+        "A owns it again"
+    );
+    let stats: Vec<_> = clusters.iter().map(|c| c.stats()).collect();
+    let applied: u64 = stats.iter().map(|s| s.ops_applied).sum();
+    let repeated: u64 = stats.iter().map(|s| s.ops_repeated).sum();
+    assert_eq!(
+        (
+            stats[0].ops_forwarded,
+            stats[1].ops_not_here,
+            applied,
+            repeated
+        ),
+        (1, 1, 1, 0),
+        "forwarded by A, answered not here by B, applied by A, not taken for a repeat: \
+         {stats:?}"
+    );
+    let v = clusters[0].sim().state(entity.id).expect("A's body").linvel;
     assert!((v[0] - 1.0).abs() < 1e-3, "Δv = J/m, once: {v:?}");
     assert!(clusters.iter().all(|c| c.ops_unanswered() == 0));
 }

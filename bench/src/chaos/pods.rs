@@ -93,6 +93,7 @@ impl Pods {
         self.lives.push(Life {
             path: ledger,
             killed_after: None,
+            stopped: Vec::new(),
         });
         pod.child = Some(child);
         pod.latest = None;

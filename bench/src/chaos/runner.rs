@@ -183,6 +183,11 @@ impl<'p> Runner<'p> {
             }
             Phase::Stopped(index, until) if now >= until => {
                 self.pods.all[index].signal(Signal::CONT);
+                let tick = self.world_tick();
+                let life = self.pods.all[index].life;
+                if let Some(stop) = self.pods.lives[life].stopped.last_mut() {
+                    stop.1 = tick;
+                }
                 self.log_fault(Some(index), format!("pod {} continued", self.name(index)));
                 self.ended(Fault::Stop, now)
             }
@@ -324,6 +329,8 @@ impl<'p> Runner<'p> {
             }
             Fault::Stop => {
                 self.pods.all[index].signal(Signal::STOP);
+                let (tick, life) = (self.world_tick(), self.pods.all[index].life);
+                self.pods.lives[life].stopped.push((tick, u64::MAX));
                 self.faults.stop += 1;
                 self.log_fault(Some(index), format!("pod {} stopped", self.name(index)));
                 Phase::Stopped(index, now + STOPPED_FOR)
@@ -364,11 +371,16 @@ impl<'p> Runner<'p> {
         self.dead_incarnations.extend(last);
     }
 
+    /// The tick the pods' shared schedule is at now.
+    fn world_tick(&self) -> u64 {
+        let since = monotonic_ns().saturating_sub(self.start_at) as f64;
+        (since * self.plan.rate / 1e9) as u64
+    }
+
     /// Logs a fault (or its end) at the pods' current tick.
     fn log_fault(&mut self, stream: Option<usize>, what: String) {
-        let since = monotonic_ns().saturating_sub(self.start_at) as f64;
         self.fault_log.push(crate::record::Fault {
-            tick: (since * self.plan.rate / 1e9) as u64,
+            tick: self.world_tick(),
             stream: stream.map(|s| s as u16),
             what,
         });

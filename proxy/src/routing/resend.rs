@@ -13,6 +13,10 @@ impl Courier<RoutedOp> for Owner<'_> {
     fn route(&mut self, name: Name, pending: &Unanswered<RoutedOp>, age: u64, tick: u64) -> Route {
         let target = pending.sent.op.target();
         match self.sim.info(target).map(|info| info.owner) {
+            // Taken on to forward and the entity is back here (see `forwarded_back`).
+            Some(owner) if owner == self.config.cluster_id && name.issuer != owner => {
+                self.forwarded_back(name, pending, age, tick)
+            }
             Some(owner) if owner == self.config.cluster_id => {
                 // Adopted or handed here since: applied here, once, if young enough.
                 match self.receipts.verdict(name) {
@@ -72,6 +76,39 @@ impl Courier<RoutedOp> for Owner<'_> {
 }
 
 impl Owner<'_> {
+    /// An op another cluster issued, which this one took on to forward, whose entity is this
+    /// cluster's again. Taking it on closed its name here, which says nothing of whether it
+    /// was applied: the cluster it was forwarded to decides. Answered "not here", it was not
+    /// applied there, and is applied here (if young enough); unanswered, that cluster is asked
+    /// again (it answers a repeat done); if it cannot be reached, the op waits for its answer
+    /// or its give-up, counted.
+    fn forwarded_back(
+        &mut self,
+        name: Name,
+        pending: &Unanswered<RoutedOp>,
+        age: u64,
+        tick: u64,
+    ) -> Route {
+        if !pending.returned {
+            return if self.neighbours.reachable(pending.to) {
+                Route::To(pending.to)
+            } else {
+                Route::Wait
+            };
+        }
+        if age + 1 > self.config.max_op_age_ticks {
+            let adopted_from = self.custody.adopted_from(pending.sent.op.target());
+            self.drop_closed(name, OpDrop::Stale, adopted_from);
+        } else {
+            let arrival = Arrival {
+                published_ns: monotonic_ns(),
+                received_ns: monotonic_ns(),
+            };
+            self.apply_here(name, &pending.sent, &arrival, tick);
+        }
+        Route::Done
+    }
+
     fn gone(&mut self, name: Name) -> Route {
         self.events.emit(ClusterEvent::OpDropped {
             name,

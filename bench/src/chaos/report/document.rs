@@ -136,12 +136,14 @@ fn owners_line(r: &ChaosReport) -> String {
     let o = &r.owners_per_tick;
     let mut out = format!(
         "owners tick by tick: {} entities, {} entity-ticks: {} owned once, {} awaiting adoption \
-         after a kill, {} across a stall; {} unowned, {} owned twice{}",
+         after a kill, {} across a stall, {} handed across a stall; {} unowned, {} owned \
+         twice{}",
         o.entities,
         o.entity_ticks,
         o.owned_once,
         o.awaiting_adoption,
         o.across_a_stall,
+        o.handed_across_a_stall,
         o.unowned,
         o.owned_twice,
         if o.unreadable_lines > 0 {
