@@ -130,8 +130,8 @@
 //! cluster knows ([`ClusterStats::ops_forwarded`]), which then answers the forwarder; a
 //! forwarded op that misses again is answered *not here* to the forwarder, which sends it on
 //! where it knows the entity to be, or applies it itself if the entity is its own again
-//! (taking it on closed its name there, which does not count as applying it). An op whose entity neither the sender nor the receiver
-//! knows is dropped ([`ClusterStats::ops_dropped_gone`]). Memory is bounded: at most
+//! (taking it on closed its name there, which does not count as applying it). An op whose
+//! entity neither the sender nor the receiver knows is dropped ([`ClusterStats::ops_dropped_gone`]). Memory is bounded: at most
 //! `MAX_UNANSWERED` (4 096) unanswered ops per destination (more are dropped, counted) and
 //! `MAX_ISSUERS` (256) windows of 2 KiB. Lost for good only: ops held by a sender that dies
 //! (its unanswered ops die with it, like anything it never published), and an op applied by
