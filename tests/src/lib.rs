@@ -119,6 +119,15 @@ impl TestContext {
             COUNTER.fetch_add(1, Ordering::Relaxed)
         );
         let context = Self { backend, id };
+        if backend == Backend::RedisCluster
+            && let Err(e) = redis_cluster_url()
+        {
+            if std::env::var("SEAM_REQUIRE_REDIS").as_deref() == Ok("1") {
+                panic!("SEAM_REQUIRE_REDIS=1 but no Redis Cluster is usable: {e}");
+            }
+            eprintln!("SKIP: no Redis Cluster ({e}); set SEAM_REQUIRE_REDIS=1 to fail instead");
+            return None;
+        }
         if backend == Backend::Redis
             && let Err(e) = seam_transport::open(&redis_url())
         {
@@ -143,6 +152,7 @@ impl TestContext {
     pub fn url_with(&self, settings: &str) -> String {
         match self.backend {
             Backend::Redis => redis_url(),
+            Backend::RedisCluster => redis_cluster_url().expect("checked by TestContext::new"),
             backend => {
                 let mut url = format!("{}?prefix=seam_{}_", backend.name(), self.id);
                 debug_assert_eq!(self.prefix().as_deref(), url.split("prefix=").nth(1));
@@ -173,7 +183,12 @@ impl TestContext {
 
     /// The iceoryx2 file prefix of this test's transports (`None` on Redis).
     pub fn prefix(&self) -> Option<String> {
-        (self.backend != Backend::Redis).then(|| format!("seam_{}_", self.id))
+        (!self.is_redis()).then(|| format!("seam_{}_", self.id))
+    }
+
+    /// Whether the backend is a Redis server or a Redis Cluster (limits are the server's).
+    pub fn is_redis(&self) -> bool {
+        matches!(self.backend, Backend::Redis | Backend::RedisCluster)
     }
 
     /// A channel name unique to this test.
@@ -185,6 +200,111 @@ impl TestContext {
 /// The Redis URL tests use.
 pub fn redis_url() -> String {
     std::env::var("SEAM_REDIS_URL").unwrap_or_else(|_| DEFAULT_REDIS_URL.to_owned())
+}
+
+/// The Redis Cluster URL tests use: `SEAM_REDIS_CLUSTER_URL`, or else a cluster of this test
+/// process's own, started once with `tools/redis-cluster up` (three primaries, three
+/// replicas) and taken down by that script when the process exits. `Err` says why there is
+/// none (no `redis-server` on the PATH, say).
+pub fn redis_cluster_url() -> Result<String, String> {
+    static URL: std::sync::OnceLock<Result<String, String>> = std::sync::OnceLock::new();
+    URL.get_or_init(|| match std::env::var("SEAM_REDIS_CLUSTER_URL") {
+        Ok(url) => Ok(url),
+        Err(_) => PrivateCluster::start_owned_by_this_process().map(|c| c.url.clone()),
+    })
+    .clone()
+}
+
+/// A Redis Cluster started with the repository's `tools/redis-cluster` on ports of its own.
+/// Dropped, it is taken down, unless it belongs to the process (see [`redis_cluster_url`]).
+pub struct PrivateCluster {
+    /// Its transport URL (the three primaries as seeds).
+    pub url: String,
+    /// The first of its six ports.
+    pub base: u16,
+    dir: std::path::PathBuf,
+    owned_by_process: bool,
+}
+
+impl PrivateCluster {
+    fn script() -> std::path::PathBuf {
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tools/redis-cluster")
+    }
+
+    /// Starts one; `Err` says why it could not.
+    pub fn start() -> Result<Self, String> {
+        Self::start_with(false)
+    }
+
+    fn start_owned_by_this_process() -> Result<Self, String> {
+        Self::start_with(true)
+    }
+
+    fn start_with(owned_by_process: bool) -> Result<Self, String> {
+        static NEXT: AtomicU32 = AtomicU32::new(0);
+        let pid = std::process::id();
+        let mut failures = Vec::new();
+        for _ in 0..4 {
+            let n = NEXT.fetch_add(1, Ordering::Relaxed);
+            // Ports 21000..=30600 and their cluster-bus ports (+10000), apart for each process
+            // and each cluster it starts.
+            let base = 21_000 + ((pid.wrapping_mul(7) + n * 131) % 1_600) * 6;
+            let dir = std::env::temp_dir().join(format!("seam-test-cluster-{pid}-{base}"));
+            let mut command = std::process::Command::new(Self::script());
+            command
+                .args(["up", "--port", &base.to_string(), "--dir"])
+                .arg(&dir);
+            if owned_by_process {
+                command.args(["--owner-pid", &pid.to_string()]);
+            }
+            let output = command
+                .stdin(std::process::Stdio::null())
+                .output()
+                .map_err(|e| format!("cannot run tools/redis-cluster: {e}"))?;
+            let stdout = String::from_utf8_lossy(&output.stdout);
+            if output.status.success()
+                && let Some(url) = stdout.lines().last()
+            {
+                return Ok(Self {
+                    url: url.trim().to_owned(),
+                    base: base as u16,
+                    dir,
+                    owned_by_process,
+                });
+            }
+            failures.push(String::from_utf8_lossy(&output.stderr).trim().to_owned());
+            if !which("redis-server") {
+                break;
+            }
+        }
+        Err(format!(
+            "tools/redis-cluster up failed: {}",
+            failures.join(" / ")
+        ))
+    }
+
+    /// The port of node `i` (0 to 5; the first three start as primaries).
+    pub fn port(&self, i: u16) -> u16 {
+        self.base + i
+    }
+}
+
+impl Drop for PrivateCluster {
+    fn drop(&mut self) {
+        if self.owned_by_process {
+            return;
+        }
+        let _ = std::process::Command::new(Self::script())
+            .args(["down", "--port", &self.base.to_string(), "--dir"])
+            .arg(&self.dir)
+            .output();
+    }
+}
+
+/// Whether `tool` is on the PATH.
+fn which(tool: &str) -> bool {
+    std::env::var_os("PATH")
+        .is_some_and(|path| std::env::split_paths(&path).any(|dir| dir.join(tool).is_file()))
 }
 
 /// Receives one message, waiting up to `timeout`; panics on a transport error.

@@ -167,6 +167,16 @@ pub enum SubscribeError {
         /// What failed.
         reason: String,
     },
+    /// The backend has no such subscription.
+    #[error("{backend} cannot subscribe to {what}: {why}")]
+    Unsupported {
+        /// The backend.
+        backend: crate::Backend,
+        /// What was asked (`patterns`).
+        what: &'static str,
+        /// Why not.
+        why: &'static str,
+    },
 }
 
 /// Why a receive failed. Malformed messages and overflows are not errors: they are counted in

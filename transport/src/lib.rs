@@ -37,6 +37,7 @@ mod iceoryx;
 mod message;
 mod pattern;
 mod redis;
+mod redis_cluster;
 mod stats;
 mod transport;
 mod url;
@@ -48,6 +49,7 @@ pub use iceoryx::{IceoryxConfig, IceoryxTransport, LocalTransport, ShmTransport}
 pub use message::{Message, Origin, OwnedMessage};
 pub use pattern::glob_match;
 pub use redis::{RedisConfig, RedisTransport, redact_url};
+pub use redis_cluster::{REFRESH_WHILE_DOWN, RedisClusterTransport};
 pub use stats::Stats;
 pub use transport::{Backend, Transport};
 
@@ -61,9 +63,13 @@ pub mod fuzzing {
     }
 }
 
-/// Opens the transport a URL names: `shm[?settings]`, `local[?settings]` or `redis://…`.
+/// Opens the transport a URL names: `shm[?settings]`, `local[?settings]`, `redis://…` or
+/// `redis-cluster://…`.
 pub fn open(url: &str) -> Result<Box<dyn Transport>, OpenError> {
     let url = url.trim();
+    if url.starts_with("redis-cluster://") {
+        return Ok(Box::new(RedisClusterTransport::open(url)?));
+    }
     if url.starts_with("redis://") || url.starts_with("redis+unix://") || url.starts_with("unix://")
     {
         return Ok(Box::new(RedisTransport::open(url)?));

@@ -27,4 +27,42 @@ pub struct Stats {
     /// Messages dropped by a transport with a frame key because their tag was wrong (another
     /// key, or changed on the way).
     pub bad_tag_drops: u64,
+    /// Redis Cluster: channels subscribed again at another node after the server dropped them
+    /// (their slot moved, or its primary changed).
+    pub resubscribes: u64,
+    /// Redis Cluster: publishes the server redirected (`MOVED`/`ASK`) and sent again where
+    /// its slot lives now.
+    pub redirects: u64,
+}
+
+impl Stats {
+    /// Adds `other`'s counts to these (a transport made of several, as on a Redis Cluster).
+    pub fn add(&mut self, other: &Stats) {
+        let Stats {
+            published,
+            received,
+            overflow_drops,
+            malformed_drops,
+            disconnects,
+            reconnects,
+            down_ns,
+            dropped_while_down,
+            untagged_drops,
+            bad_tag_drops,
+            resubscribes,
+            redirects,
+        } = *other;
+        self.published += published;
+        self.received += received;
+        self.overflow_drops += overflow_drops;
+        self.malformed_drops += malformed_drops;
+        self.disconnects += disconnects;
+        self.reconnects += reconnects;
+        self.down_ns += down_ns;
+        self.dropped_while_down += dropped_while_down;
+        self.untagged_drops += untagged_drops;
+        self.bad_tag_drops += bad_tag_drops;
+        self.resubscribes += resubscribes;
+        self.redirects += redirects;
+    }
 }

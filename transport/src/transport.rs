@@ -14,15 +14,19 @@ pub enum Backend {
     Local,
     /// A Redis server.
     Redis,
+    /// A Redis Cluster, with sharded pub/sub.
+    RedisCluster,
 }
 
 impl Backend {
-    /// The URL scheme that selects this backend: `shm`, `local` or `redis`.
+    /// The URL scheme that selects this backend: `shm`, `local`, `redis` or
+    /// `redis-cluster`.
     pub fn name(self) -> &'static str {
         match self {
             Backend::Shm => "shm",
             Backend::Local => "local",
             Backend::Redis => "redis",
+            Backend::RedisCluster => "redis-cluster",
         }
     }
 }

@@ -252,8 +252,10 @@ impl RedisTransport {
         validate_channel(name)?;
         let (kind, adds) = match command {
             "SUBSCRIBE" => ("SUBSCRIBE", true),
+            "SSUBSCRIBE" => ("SSUBSCRIBE", true),
             "PSUBSCRIBE" => ("PSUBSCRIBE", true),
             "UNSUBSCRIBE" => ("SUBSCRIBE", false),
+            "SUNSUBSCRIBE" => ("SSUBSCRIBE", false),
             _ => ("PSUBSCRIBE", false),
         };
         let recorded = |list: &mut Vec<(&'static str, String)>| {

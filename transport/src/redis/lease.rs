@@ -43,7 +43,7 @@ pub(super) struct Lease {
 }
 
 /// The Redis key of `name`'s lease.
-fn key(name: &str) -> String {
+pub(crate) fn key(name: &str) -> String {
     format!("seam:claim:{name}")
 }
 

@@ -30,6 +30,7 @@ mod connection;
 mod lease;
 mod replies;
 mod resp;
+mod sharded;
 
 pub(crate) use resp::fuzz_check as fuzz_check_resp;
 mod socket;
@@ -37,7 +38,9 @@ mod socket;
 use config::Endpoint;
 pub use config::{RedisConfig, redact_url};
 use connection::{Outage, connection_lost};
+pub(crate) use lease::key as claim_key;
 use replies::{Current, EarlyMessage};
+pub(crate) use sharded::no_patterns;
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -73,6 +76,14 @@ pub struct RedisTransport {
     outage: Option<Outage>,
     /// Names this transport holds (see [`Transport::claim`]).
     leases: Vec<lease::Lease>,
+    /// Sharded pub/sub (`SPUBLISH`, `SSUBSCRIBE`): one node of a Redis Cluster, driven by
+    /// `crate::redis_cluster`.
+    sharded: bool,
+    /// Where the server said the last publish's slot lives (`MOVED`/`ASK`), not yet taken.
+    redirected: Option<String>,
+    /// Sharded channels the server unsubscribed this transport from unasked (their slot is no
+    /// longer served here), not yet taken.
+    dropped_by_server: Vec<String>,
 }
 
 impl Drop for RedisTransport {
@@ -103,6 +114,9 @@ impl RedisTransport {
             subscriptions: Vec::new(),
             outage: None,
             leases: Vec::new(),
+            sharded: false,
+            redirected: None,
+            dropped_by_server: Vec::new(),
         };
         transport
             .authenticate()
@@ -128,7 +142,7 @@ impl RedisTransport {
             .try_into()
             .expect("the buffer starts with room for the envelope");
         envelope.write_to(head);
-        let packed = redis::cmd("PUBLISH")
+        let packed = redis::cmd(if self.sharded { "SPUBLISH" } else { "PUBLISH" })
             .arg(channel)
             .arg(&self.out[..])
             .get_packed_command();
@@ -141,6 +155,10 @@ impl RedisTransport {
             Err(e) if self.config.reconnect && connection_lost(&e) => {
                 self.went_down();
                 self.intake.stats.dropped_while_down += 1;
+                return Ok(0);
+            }
+            Err(e) if self.sharded && e.redirect_node().is_some() => {
+                self.redirected = e.redirect_node().map(|(addr, _)| addr.to_owned());
                 return Ok(0);
             }
             Err(e) => {
@@ -263,21 +281,27 @@ impl Transport for RedisTransport {
     }
 
     fn subscribe(&mut self, channel: &str) -> Result<(), SubscribeError> {
-        self.subscription("SUBSCRIBE", channel)
+        self.subscription(sharded::command(self.sharded, "SUBSCRIBE"), channel)
     }
 
     fn unsubscribe(&mut self, channel: &str) -> Result<(), SubscribeError> {
-        self.subscription("UNSUBSCRIBE", channel)?;
+        self.subscription(sharded::command(self.sharded, "UNSUBSCRIBE"), channel)?;
         let key = self.intake.channel_key(channel);
         self.intake.forget_channel(key);
         Ok(())
     }
 
     fn psubscribe(&mut self, pattern: &str) -> Result<(), SubscribeError> {
+        if self.sharded {
+            return Err(sharded::no_patterns());
+        }
         self.subscription("PSUBSCRIBE", pattern)
     }
 
     fn punsubscribe(&mut self, pattern: &str) -> Result<(), SubscribeError> {
+        if self.sharded {
+            return Err(sharded::no_patterns());
+        }
         self.subscription("PUNSUBSCRIBE", pattern)
     }
 

@@ -56,7 +56,7 @@ pub(super) fn classify<'a>(frame: &Frame<'a>) -> Reply<'a> {
         };
     }
     match (frame.len, bulk(0)) {
-        (3, Some(b"message")) => match (bulk(1), bulk(2)) {
+        (3, Some(b"message" | b"smessage")) => match (bulk(1), bulk(2)) {
             (Some(channel), Some(wire)) => Reply::Message {
                 channel,
                 pattern: None,
@@ -197,7 +197,10 @@ impl RedisTransport {
 
     /// Parses the next reply in the socket's buffer: the bytes it used, and where a pub/sub
     /// message's channel, pattern and payload lie in the buffer (`None` for another reply).
-    fn parse_next(&self, max_bulk: usize) -> Result<Option<(usize, Option<Ranges>)>, RespError> {
+    fn parse_next(
+        &mut self,
+        max_bulk: usize,
+    ) -> Result<Option<(usize, Option<Ranges>)>, RespError> {
         let Some((frame, used)) = resp::parse(self.socket.unparsed(), max_bulk)? else {
             return Ok(None);
         };
@@ -212,6 +215,16 @@ impl RedisTransport {
                 pattern.map(|p| range_in(buf, p)),
                 range_in(buf, wire),
             )),
+            // Not asked for (an asked one is read by `command`): a Redis Cluster node no
+            // longer serves the channel's slot.
+            Reply::Confirmation {
+                kind: b"sunsubscribe",
+                channel,
+            } => {
+                self.dropped_by_server
+                    .push(String::from_utf8_lossy(channel).into_owned());
+                None
+            }
             _ => None,
         };
         Ok(Some((used, message)))
@@ -236,7 +249,7 @@ impl RedisTransport {
         true
     }
 
-    pub(super) fn current_message(&self) -> Option<Message<'_>> {
+    pub(crate) fn current_message(&self) -> Option<Message<'_>> {
         // Channel names were checked as UTF-8 in `accept`; patterns come from the server as sent.
         fn text(bytes: &[u8]) -> &str {
             std::str::from_utf8(bytes).unwrap_or("")
