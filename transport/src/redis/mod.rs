@@ -149,6 +149,7 @@ impl RedisTransport {
         let reached = match self
             .publisher
             .req_packed_command(&packed)
+            .and_then(redis::Value::extract_error)
             .and_then(|value| redis::from_redis_value::<usize>(value).map_err(Into::into))
         {
             Ok(reached) => reached,
