@@ -65,6 +65,7 @@ pub mod owners;
 pub mod ping;
 pub mod pod;
 pub mod record;
+pub mod redis_cluster;
 pub mod redis_server;
 pub mod relay;
 pub mod run;

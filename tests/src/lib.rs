@@ -203,108 +203,34 @@ pub fn redis_url() -> String {
 }
 
 /// The Redis Cluster URL tests use: `SEAM_REDIS_CLUSTER_URL`, or else a cluster of this test
-/// process's own, started once with `tools/redis-cluster up` (three primaries, three
-/// replicas) and taken down by that script when the process exits. `Err` says why there is
-/// none (no `redis-server` on the PATH, say).
+/// process's own, made once with `tools/redis-cluster up` (three primaries, three replicas)
+/// and taken down by that script when the process exits. `Err` says why there is none (no
+/// `redis-server` on the PATH, say).
 pub fn redis_cluster_url() -> Result<String, String> {
     static URL: std::sync::OnceLock<Result<String, String>> = std::sync::OnceLock::new();
     URL.get_or_init(|| match std::env::var("SEAM_REDIS_CLUSTER_URL") {
         Ok(url) => Ok(url),
-        Err(_) => PrivateCluster::start_owned_by_this_process().map(|c| c.url.clone()),
+        Err(_) => seam_bench::redis_cluster::RedisCluster::start_for_process()
+            .map(|cluster| cluster.url().to_owned())
+            .map_err(|e| e.to_string()),
     })
     .clone()
 }
 
-/// A Redis Cluster started with the repository's `tools/redis-cluster` on ports of its own.
-/// Dropped, it is taken down, unless it belongs to the process (see [`redis_cluster_url`]).
-pub struct PrivateCluster {
-    /// Its transport URL (the three primaries as seeds).
-    pub url: String,
-    /// The first of its six ports.
-    pub base: u16,
-    dir: std::path::PathBuf,
-    owned_by_process: bool,
-}
-
-impl PrivateCluster {
-    fn script() -> std::path::PathBuf {
-        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tools/redis-cluster")
-    }
-
-    /// Starts one; `Err` says why it could not.
-    pub fn start() -> Result<Self, String> {
-        Self::start_with(false)
-    }
-
-    fn start_owned_by_this_process() -> Result<Self, String> {
-        Self::start_with(true)
-    }
-
-    fn start_with(owned_by_process: bool) -> Result<Self, String> {
-        static NEXT: AtomicU32 = AtomicU32::new(0);
-        let pid = std::process::id();
-        let mut failures = Vec::new();
-        for _ in 0..4 {
-            let n = NEXT.fetch_add(1, Ordering::Relaxed);
-            // Ports 21000..=30600 and their cluster-bus ports (+10000), apart for each process
-            // and each cluster it starts.
-            let base = 21_000 + ((pid.wrapping_mul(7) + n * 131) % 1_600) * 6;
-            let dir = std::env::temp_dir().join(format!("seam-test-cluster-{pid}-{base}"));
-            let mut command = std::process::Command::new(Self::script());
-            command
-                .args(["up", "--port", &base.to_string(), "--dir"])
-                .arg(&dir);
-            if owned_by_process {
-                command.args(["--owner-pid", &pid.to_string()]);
-            }
-            let output = command
-                .stdin(std::process::Stdio::null())
-                .output()
-                .map_err(|e| format!("cannot run tools/redis-cluster: {e}"))?;
-            let stdout = String::from_utf8_lossy(&output.stdout);
-            if output.status.success()
-                && let Some(url) = stdout.lines().last()
-            {
-                return Ok(Self {
-                    url: url.trim().to_owned(),
-                    base: base as u16,
-                    dir,
-                    owned_by_process,
-                });
-            }
-            failures.push(String::from_utf8_lossy(&output.stderr).trim().to_owned());
-            if !which("redis-server") {
-                break;
-            }
+/// A private Redis Cluster for a test that changes it (kills a primary, moves a slot), or
+/// `None` (with a skip notice) where none can be made, unless `SEAM_REQUIRE_REDIS=1`, under
+/// which the test fails.
+pub fn private_cluster() -> Option<seam_bench::redis_cluster::RedisCluster> {
+    match seam_bench::redis_cluster::RedisCluster::start() {
+        Ok(cluster) => Some(cluster),
+        Err(e) if std::env::var("SEAM_REQUIRE_REDIS").as_deref() == Ok("1") => {
+            panic!("SEAM_REQUIRE_REDIS=1 but no Redis Cluster starts: {e}")
         }
-        Err(format!(
-            "tools/redis-cluster up failed: {}",
-            failures.join(" / ")
-        ))
-    }
-
-    /// The port of node `i` (0 to 5; the first three start as primaries).
-    pub fn port(&self, i: u16) -> u16 {
-        self.base + i
-    }
-}
-
-impl Drop for PrivateCluster {
-    fn drop(&mut self) {
-        if self.owned_by_process {
-            return;
+        Err(e) => {
+            eprintln!("SKIP: {e}; set SEAM_REQUIRE_REDIS=1 to fail instead");
+            None
         }
-        let _ = std::process::Command::new(Self::script())
-            .args(["down", "--port", &self.base.to_string(), "--dir"])
-            .arg(&self.dir)
-            .output();
     }
-}
-
-/// Whether `tool` is on the PATH.
-fn which(tool: &str) -> bool {
-    std::env::var_os("PATH")
-        .is_some_and(|path| std::env::split_paths(&path).any(|dir| dir.join(tool).is_file()))
 }
 
 /// Receives one message, waiting up to `timeout`; panics on a transport error.

@@ -5,89 +5,10 @@
 //! new primary) and count it. Also what it says when there is no cluster to use. Without
 //! `redis-server` these skip, or fail under `SEAM_REQUIRE_REDIS=1`.
 
-use std::process::Command;
 use std::time::{Duration, Instant};
 
-use seam_tests::PrivateCluster;
+use seam_tests::private_cluster;
 use seam_transport::{OpenError, Transport};
-
-/// A private cluster, or `None` (after a skip line) where none starts.
-fn cluster() -> Option<PrivateCluster> {
-    match PrivateCluster::start() {
-        Ok(cluster) => Some(cluster),
-        Err(e) if std::env::var("SEAM_REQUIRE_REDIS").as_deref() == Ok("1") => {
-            panic!("SEAM_REQUIRE_REDIS=1 but no Redis Cluster starts: {e}")
-        }
-        Err(e) => {
-            eprintln!("SKIP: {e}; set SEAM_REQUIRE_REDIS=1 to fail instead");
-            None
-        }
-    }
-}
-
-/// `redis-cli -p PORT ARGS...`'s output; panics if it fails.
-fn cli(port: u16, args: &[&str]) -> String {
-    let output = Command::new("redis-cli")
-        .args(["-p", &port.to_string()])
-        .args(args)
-        .output()
-        .expect("redis-cli runs");
-    assert!(output.status.success(), "redis-cli {args:?} failed");
-    String::from_utf8_lossy(&output.stdout).into_owned()
-}
-
-/// One line of `CLUSTER NODES`.
-struct Node {
-    id: String,
-    port: u16,
-    primary: bool,
-    /// The primary it replicates, for a replica.
-    of: String,
-}
-
-fn nodes(port: u16) -> Vec<Node> {
-    cli(port, &["cluster", "nodes"])
-        .lines()
-        .filter_map(|line| {
-            let words: Vec<&str> = line.split(' ').collect();
-            let addr = words.get(1)?.split('@').next()?;
-            Some(Node {
-                id: words[0].to_owned(),
-                port: addr.rsplit_once(':')?.1.parse().ok()?,
-                primary: words.get(2)?.contains("master") && !words[2].contains("fail"),
-                of: words.get(3)?.to_string(),
-            })
-        })
-        .collect()
-}
-
-/// The slot of `channel`, as the cluster computes it.
-fn slot(port: u16, channel: &str) -> u16 {
-    cli(port, &["cluster", "keyslot", channel])
-        .trim()
-        .parse()
-        .expect("a slot")
-}
-
-/// The node serving `slot` (from `CLUSTER SHARDS`-free parsing of `CLUSTER NODES` ranges).
-fn serving(port: u16, slot: u16) -> Node {
-    let text = cli(port, &["cluster", "nodes"]);
-    for line in text.lines() {
-        let words: Vec<&str> = line.split(' ').collect();
-        let serves = words.iter().skip(8).any(|range| {
-            let (a, b) = range.split_once('-').unwrap_or((range, range));
-            matches!((a.parse::<u16>(), b.parse::<u16>()), (Ok(a), Ok(b)) if a <= slot && slot <= b)
-        });
-        if serves {
-            let id = words[0];
-            return nodes(port)
-                .into_iter()
-                .find(|n| n.id == id)
-                .expect("listed");
-        }
-    }
-    panic!("no node serves slot {slot}");
-}
 
 /// Publishes on `channel` until `receiver` gets a message on it; panics after `within`.
 fn until_received(
@@ -124,11 +45,11 @@ fn open(url: &str) -> Box<dyn Transport> {
 /// again.
 #[test]
 fn a_moved_slot_is_followed_by_publisher_and_subscriber() {
-    let Some(cluster) = cluster() else {
+    let Some(cluster) = private_cluster() else {
         return;
     };
     let channel = "replication:{moved-slot}";
-    let (mut publisher, mut subscriber) = (open(&cluster.url), open(&cluster.url));
+    let (mut publisher, mut subscriber) = (open(cluster.url()), open(cluster.url()));
     subscriber.subscribe(channel).expect("subscribe");
     until_received(
         publisher.as_mut(),
@@ -136,31 +57,19 @@ fn a_moved_slot_is_followed_by_publisher_and_subscriber() {
         channel,
         Duration::from_secs(5),
     );
-    let slot = slot(cluster.base, channel);
-    let from = serving(cluster.base, slot);
-    let to = nodes(cluster.base)
-        .into_iter()
-        .find(|n| n.primary && n.id != from.id)
-        .expect("another primary");
-    let slot_text = slot.to_string();
-    cli(
-        to.port,
-        &["cluster", "setslot", &slot_text, "importing", &from.id],
-    );
-    cli(
-        from.port,
-        &["cluster", "setslot", &slot_text, "migrating", &to.id],
-    );
-    for port in [to.port, from.port] {
-        cli(port, &["cluster", "setslot", &slot_text, "node", &to.id]);
-    }
+    let slot = cluster.slot_of(channel).expect("slot");
+    let (_, to) = cluster.move_slot(slot).expect("the slot moves");
     until_received(
         publisher.as_mut(),
         subscriber.as_mut(),
         channel,
         Duration::from_secs(10),
     );
-    assert_eq!(serving(to.port, slot).id, to.id, "the slot moved");
+    assert_eq!(
+        cluster.primary_of(slot).expect("served").port,
+        to,
+        "the slot moved"
+    );
     let (sent, got) = (publisher.stats(), subscriber.stats());
     assert!(
         sent.redirects >= 1,
@@ -177,11 +86,11 @@ fn a_moved_slot_is_followed_by_publisher_and_subscriber() {
 /// again; what was published meanwhile is dropped and counted, never an error.
 #[test]
 fn a_failover_is_followed() {
-    let Some(cluster) = cluster() else {
+    let Some(cluster) = private_cluster() else {
         return;
     };
     let channel = "physics_events:{failover}";
-    let (mut publisher, mut subscriber) = (open(&cluster.url), open(&cluster.url));
+    let (mut publisher, mut subscriber) = (open(cluster.url()), open(cluster.url()));
     subscriber.subscribe(channel).expect("subscribe");
     until_received(
         publisher.as_mut(),
@@ -189,15 +98,15 @@ fn a_failover_is_followed() {
         channel,
         Duration::from_secs(5),
     );
-    let slot = slot(cluster.base, channel);
-    let primary = serving(cluster.base, slot);
-    let replica = nodes(cluster.base)
+    let slot = cluster.slot_of(channel).expect("slot");
+    let primary = cluster.primary_of(slot).expect("served");
+    let replica = cluster
+        .nodes()
+        .expect("nodes")
         .into_iter()
-        .find(|n| n.of == primary.id)
+        .find(|n| n.replica_of.as_deref() == Some(primary.id.as_str()))
         .expect("its replica");
-    let _ = Command::new("redis-cli")
-        .args(["-p", &primary.port.to_string(), "shutdown", "nosave"])
-        .output();
+    cluster.kill_primary_of(slot).expect("killed");
     until_received(
         publisher.as_mut(),
         subscriber.as_mut(),
@@ -205,7 +114,7 @@ fn a_failover_is_followed() {
         Duration::from_secs(20),
     );
     assert_eq!(
-        serving(replica.port, slot).id,
+        cluster.primary_of(slot).expect("served").id,
         replica.id,
         "the replica serves the slot now"
     );

@@ -22,8 +22,9 @@ use crate::cli::Output;
 pub(crate) struct RunArgs {
     /// The scene file (TOML), e.g. bench/scenes/crossfire.toml.
     scene: PathBuf,
-    /// Transport URL for every pod: `shm`, or `redis://host:port` (`redis` alone means
-    /// redis://127.0.0.1:6379).
+    /// Transport URL for every pod: `shm`, `redis://host:port` (`redis` alone means
+    /// redis://127.0.0.1:6379), or `redis-cluster://host:port,host:port` (seed nodes of a Redis
+    /// Cluster; `tools/redis-cluster up` starts one on loopback and prints its URL).
     #[arg(long, default_value = "shm")]
     transport: String,
     /// Ticks per second; 0 ticks as fast as each pod can.
@@ -70,7 +71,8 @@ struct HostsArgs {
     /// so and uses prefixes alone. Needs `--transport shm`.
     #[arg(long)]
     hosts: Option<u32>,
-    /// The Redis server between hosts (on this machine's loopback for simulated hosts).
+    /// The Redis server between hosts (on this machine's loopback for simulated hosts), or a
+    /// Redis Cluster (`redis-cluster://host:port,...`).
     #[arg(long, default_value = "redis://127.0.0.1:6379")]
     redis: String,
     /// Simulated latency: delay everything between one host's bridge and Redis by this many ms
