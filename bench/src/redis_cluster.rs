@@ -169,12 +169,19 @@ impl RedisCluster {
         Ok(())
     }
 
-    /// Whether every node but `down` (a node index) answers.
-    pub fn is_running(&self, down: Option<u16>) -> bool {
+    /// Whether the process of every node but `down` (a node index) is alive (cheap: read
+    /// from their pid files, no command sent).
+    pub fn processes_alive(&self, down: Option<u16>) -> bool {
         self.ports()
             .enumerate()
             .filter(|&(i, _)| Some(i as u16) != down)
-            .all(|(_, port)| cli(port, &["ping"]).is_ok())
+            .all(|(_, port)| {
+                std::fs::read_to_string(self.dir.join(format!("{port}.pid")))
+                    .ok()
+                    .and_then(|pid| pid.trim().parse::<i32>().ok())
+                    .and_then(rustix::process::Pid::from_raw)
+                    .is_some_and(|pid| rustix::process::test_kill_process(pid).is_ok())
+            })
     }
 
     /// Moves `slot` from its primary to another (the steps `redis-cli --cluster reshard`

@@ -5,24 +5,29 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
-use seam_bench::chaos::{self, ChaosPlan, ChaosReport};
+use seam_bench::chaos::{self, Broker, ChaosPlan, ChaosReport};
 use seam_bench::record::{Chunk, PartsDir, Recording};
 use seam_tests::{private_redis, scene_path};
 
-fn chaos_run(redis: bool, key: Option<&str>) -> ChaosReport {
-    chaos_run_recorded(redis, key, None)
+fn chaos_run(broker: Broker, key: Option<&str>) -> ChaosReport {
+    chaos_run_recorded(broker, key, None)
 }
 
 fn chaos_run_recorded(
-    redis: bool,
+    broker: Broker,
     key: Option<&str>,
     record_dir: Option<std::path::PathBuf>,
 ) -> ChaosReport {
     let plan = ChaosPlan {
         scene: scene_path("crossfire.toml"),
-        redis,
+        broker,
         rate: 60.0,
-        duration: Duration::from_secs(20),
+        // Four kinds of fault take turns on a Redis Cluster: a longer run to fit them all.
+        duration: Duration::from_secs(if broker == Broker::RedisCluster {
+            32
+        } else {
+            20
+        }),
         fault_every: Duration::from_secs(2),
         layers: 1,
         seed: 7,
@@ -54,7 +59,7 @@ fn chaos_on_shared_memory_loses_nothing() {
     // Recorded: every incarnation of every pod writes its own part, and the faults go in too.
     let out = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("chaos-shm.rec");
     let parts = PartsDir::beside(Some(&out)).expect("parts folder");
-    let report = chaos_run_recorded(false, None, Some(parts.dir.clone()));
+    let report = chaos_run_recorded(Broker::Shm, None, Some(parts.dir.clone()));
     assert_held(&report);
     let summary = parts
         .merge_into(&out, &report.fault_log, "seam chaos")
@@ -94,7 +99,7 @@ fn chaos_on_redis_loses_nothing() {
     }
     // With a frame key: everything the injector (which has none) sends is dropped as untagged
     // before a decoder sees it (`ChaosReport::accounted`).
-    let report = chaos_run(true, Some("chaos-key"));
+    let report = chaos_run(Broker::Redis, Some("chaos-key"));
     assert!(report.keyed);
     assert_held(&report);
     assert_eq!(
@@ -107,4 +112,20 @@ fn chaos_on_redis_loses_nothing() {
         chaos::document(&report).text()
     );
     assert!(report.recovery.reconnects >= 1);
+}
+
+#[test]
+fn chaos_on_a_redis_cluster_loses_nothing() {
+    // Only to see whether a private cluster can be made here.
+    if seam_tests::private_cluster().is_none() {
+        return;
+    }
+    let report = chaos_run(Broker::RedisCluster, None);
+    assert_held(&report);
+    let table = chaos::document(&report).text();
+    assert!(
+        report.faults.primary_kill >= 1 && report.faults.slot_move >= 1,
+        "a primary killed and a slot moved: {table}"
+    );
+    assert!(report.transport.starts_with("redis-cluster://"), "{table}");
 }

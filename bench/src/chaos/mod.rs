@@ -1,14 +1,22 @@
 //! `seam chaos`: a scene's pods under faults on a schedule, and what survived.
 //!
 //! The pods run as in `seam run` (one `seam node` per cluster, in phase on a shared schedule) on a
-//! transport of their own: shared memory under a private prefix, or with `--transport redis` a
-//! private `redis-server` this command starts (so it can kill it). Every `fault_every` one
-//! fault, in turn:
+//! transport of their own: shared memory under a private prefix, with `--transport redis` a
+//! private `redis-server` this command starts (so it can kill it), or with `--transport
+//! redis-cluster` a private Redis Cluster (`tools/redis-cluster`: three primaries, three
+//! replicas). Every `fault_every` one fault, in turn:
 //!
 //! 1. **kill** a pod with SIGKILL and start it again 2 s later with `--rejoin` (empty, at the
 //!    world's tick; its neighbours adopted what it owned and hand it back);
 //! 2. **restart Redis** (SIGKILL, 1 s down, started again on the same port), with Redis only;
-//! 3. **stop** a pod with SIGSTOP for 1 s, then SIGCONT.
+//!    on a Redis Cluster, **kill a primary**: the one serving a random pod's replication
+//!    channel, with SIGKILL, started again 3 s later (its replica was promoted meanwhile; it
+//!    rejoins as a replica);
+//! 3. **stop** a pod with SIGSTOP for 1 s, then SIGCONT;
+//! 4. on a Redis Cluster, **move a slot**: that of a random pod's replication channel, to
+//!    another primary, live (the steps of `redis-cli --cluster reshard` for one slot).
+//!
+//! On a Redis Cluster the turn is kill, move a slot, stop, kill a primary.
 //!
 //! Kills happen in the first half of the run only (the others go on to the end), so every pod's
 //! last incarnation lives at least half the run and its memory after warm-up can be judged. No
@@ -36,6 +44,7 @@
 //! adoptions and returns do not balance, when an op or report is lost or applied twice (by the
 //! sums or by name), or when a pod's memory grows past its bound.
 
+mod broker;
 mod inject;
 mod pods;
 mod report;
@@ -48,6 +57,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use crate::error::BenchResult;
+pub use broker::Broker;
 pub use inject::{InjectCounts, Injector};
 pub use report::{
     ChaosReport, FaultCounts, FrameCounts, MEMORY_BOUND_PCT, MemoryRow, MemorySample, OpCounts,
@@ -60,8 +70,8 @@ pub(crate) use schedule::Fault;
 pub struct ChaosPlan {
     /// The scene file.
     pub scene: PathBuf,
-    /// A private Redis server instead of shared memory.
-    pub redis: bool,
+    /// What carries the frames: shared memory, or a private Redis server or Redis Cluster.
+    pub broker: Broker,
     /// Ticks per second.
     pub rate: f64,
     /// How long the pods run.

@@ -7,16 +7,14 @@ use std::time::{Duration, Instant};
 use rustix::process::Signal;
 use seam_proxy::monotonic_ns;
 
+use super::broker::{PRIMARY_DOWN_FOR, REDIS_DOWN_FOR, Server};
 use super::pods::Pods;
-use super::schedule::{
-    Fault, KILLED_FOR, Phase, REDIS_DOWN_FOR, STOPPED_FOR, SURVIVE_WITHIN, Schedule,
-};
+use super::schedule::{Fault, KILLED_FOR, Phase, STOPPED_FOR, SURVIVE_WITHIN, Schedule};
 use super::{ChaosPlan, ChaosReport, FaultCounts, Injector, MemoryRow, report};
 use crate::error::{BenchError, BenchResult};
 use crate::ledger::Followed;
 use crate::node::{NodeProgress, NodeReport};
 use crate::pod::SceneIds;
-use crate::redis_server::RedisServer;
 use crate::run::{RunPlan, fresh_run_id};
 use crate::scene::Scene;
 
@@ -31,7 +29,7 @@ const COUNTED_WITHIN: Duration = Duration::from_secs(2);
 pub(super) struct Runner<'p> {
     plan: &'p ChaosPlan,
     pods: Pods,
-    redis: Option<RedisServer>,
+    server: Server,
     scene: Scene,
     run_id: String,
     transport: String,
@@ -67,16 +65,11 @@ impl<'p> Runner<'p> {
                 format!("must be positive, not {}", plan.rate),
             ));
         }
-        let redis = if plan.redis {
-            Some(RedisServer::start()?)
-        } else {
-            None
-        };
+        let server = Server::start(plan.broker)?;
         let run_id = fresh_run_id();
-        let transport = match &redis {
-            Some(server) => server.url(),
-            None => format!("shm?prefix=seam_chaos_{}_", std::process::id()),
-        };
+        let transport = server
+            .url()
+            .unwrap_or_else(|| format!("shm?prefix=seam_chaos_{}_", std::process::id()));
         let ticks = (plan.duration.as_secs_f64() * plan.rate).ceil() as u64;
         let pod_transport = match &plan.key {
             Some(key) => {
@@ -102,7 +95,7 @@ impl<'p> Runner<'p> {
             run_plan.start_delay,
             plan.duration,
             plan.fault_every,
-            plan.redis,
+            server.faults(),
             plan.seed,
         );
         let names: Vec<String> = scene.clusters.iter().map(|c| c.name.clone()).collect();
@@ -113,7 +106,7 @@ impl<'p> Runner<'p> {
         Ok(Self {
             plan,
             pods,
-            redis,
+            server,
             scene,
             run_id,
             transport,
@@ -167,11 +160,11 @@ impl<'p> Runner<'p> {
             }
         }
         let now = Instant::now();
-        if let Some(r) = &self.redis
-            && !r.is_running()
-            && !matches!(self.phase, Phase::RedisDown(_))
-        {
-            return Err(BenchError::process("redis-server", "down outside a fault"));
+        if !matches!(self.phase, Phase::RedisDown(_)) && !self.server.is_running() {
+            return Err(BenchError::process(
+                "the run's Redis server or cluster",
+                "down outside a fault",
+            ));
         }
         self.judge_survival(now);
         self.phase = match self.phase {
@@ -192,11 +185,13 @@ impl<'p> Runner<'p> {
                 self.ended(Fault::Stop, now)
             }
             Phase::RedisDown(until) if now >= until => {
-                if let Some(server) = &mut self.redis {
-                    server.restart()?;
-                }
-                self.log_fault(None, "Redis server restarted".into());
-                self.ended(Fault::RestartRedis, now)
+                let what = self.server.bring_back()?;
+                self.log_fault(None, what);
+                let fault = match self.server {
+                    Server::Cluster { .. } => Fault::KillPrimary,
+                    _ => Fault::RestartRedis,
+                };
+                self.ended(fault, now)
             }
             other => other,
         };
@@ -288,7 +283,7 @@ impl<'p> Runner<'p> {
         }
         let fault = self.schedule.next_kind(now);
         let index = self.schedule.pick(self.pods.all.len());
-        Ok(self.fire(fault, index, now))
+        self.fire(fault, index, now)
     }
 
     /// Injected deliveries the pods' latest counters (the killed lives' last) do not count.
@@ -318,12 +313,13 @@ impl<'p> Runner<'p> {
         self.unseen_before = unseen;
     }
 
-    /// Fires `fault` (at pod `index` where it hits one); the phase it starts.
-    fn fire(&mut self, fault: Fault, index: usize, now: Instant) -> Phase {
-        match fault {
+    /// Fires `fault` (at pod `index` where it hits one, or at its replication channel's slot);
+    /// the phase it starts.
+    fn fire(&mut self, fault: Fault, index: usize, now: Instant) -> BenchResult<Phase> {
+        self.faults.injected(fault);
+        Ok(match fault {
             Fault::Kill => {
                 self.kill(index);
-                self.faults.kill += 1;
                 self.log_fault(Some(index), format!("pod {} killed", self.name(index)));
                 Phase::Killed(index, now + KILLED_FOR)
             }
@@ -331,19 +327,30 @@ impl<'p> Runner<'p> {
                 self.pods.all[index].signal(Signal::STOP);
                 let (tick, life) = (self.world_tick(), self.pods.all[index].life);
                 self.pods.lives[life].stopped.push((tick, u64::MAX));
-                self.faults.stop += 1;
                 self.log_fault(Some(index), format!("pod {} stopped", self.name(index)));
                 Phase::Stopped(index, now + STOPPED_FOR)
             }
-            Fault::RestartRedis => {
-                if let Some(server) = &mut self.redis {
-                    server.kill();
-                }
-                self.faults.redis_restart += 1;
-                self.log_fault(None, "Redis server killed".into());
-                Phase::RedisDown(now + REDIS_DOWN_FOR)
+            Fault::RestartRedis | Fault::KillPrimary => {
+                let what = self.server.take_down(&self.channel_of(index))?;
+                self.log_fault(None, what);
+                let down_for = match fault {
+                    Fault::KillPrimary => PRIMARY_DOWN_FOR,
+                    _ => REDIS_DOWN_FOR,
+                };
+                Phase::RedisDown(now + down_for)
             }
-        }
+            Fault::MoveSlot => {
+                let what = self.server.move_slot(&self.channel_of(index))?;
+                self.log_fault(Some(index), what);
+                self.ended(Fault::MoveSlot, now)
+            }
+        })
+    }
+
+    /// The replication channel of pod `index`'s cluster.
+    fn channel_of(&self, index: usize) -> String {
+        let ids = SceneIds::new(&self.run_id, &self.scene.name);
+        seam_proxy::replication(ids.cluster(self.name(index)))
     }
 
     /// Kills pod `index` and keeps its life's last counters.
@@ -401,12 +408,15 @@ impl<'p> Runner<'p> {
         let c = self.injector.counts();
         let f = &self.faults;
         progress(&format!(
-            "{:>5.0} s  {}  faults: {} kill, {} stop, {} redis; injected {} garbage, {} forged",
+            "{:>5.0} s  {}  faults: {} kill, {} stop, {} redis, {} primary, {} slot; injected {} \
+             garbage, {} forged",
             self.launched.elapsed().as_secs_f64(),
             ticks_now.join(", "),
             f.kill,
             f.stop,
             f.redis_restart,
+            f.primary_kill,
+            f.slot_move,
             c.garbage_frames,
             c.forged_frames
         ));
@@ -467,7 +477,7 @@ impl<'p> Runner<'p> {
             report::Inputs {
                 transport: seam_transport::redact_url(&self.transport),
                 keyed: plan.key.is_some(),
-                redis: plan.redis,
+                planned: self.server.faults(),
                 rate: plan.rate,
                 duration_s: plan.duration.as_secs_f64(),
                 wall_s: self.launched.elapsed().as_secs_f64(),

@@ -8,8 +8,6 @@ use std::time::{Duration, Instant};
 pub(super) const KILLED_FOR: Duration = Duration::from_secs(2);
 /// A pod is stopped this long.
 pub(super) const STOPPED_FOR: Duration = Duration::from_secs(1);
-/// The Redis server is down this long.
-pub(super) const REDIS_DOWN_FOR: Duration = Duration::from_secs(1);
 /// Every pod shows progress again within this long of a fault's end, or it is not survived.
 pub(super) const SURVIVE_WITHIN: Duration = Duration::from_secs(5);
 /// Time the run may take beyond its planned length before its pods are killed and it fails:
@@ -22,6 +20,10 @@ pub(crate) enum Fault {
     Kill,
     Stop,
     RestartRedis,
+    /// A Redis Cluster primary killed, started again a few seconds later.
+    KillPrimary,
+    /// The slot of a live channel moved to another Redis Cluster primary.
+    MoveSlot,
 }
 
 /// Where a run is between faults.
@@ -33,7 +35,7 @@ pub(super) enum Phase {
     Killed(usize, Instant),
     /// Pod `index` is stopped until the instant.
     Stopped(usize, Instant),
-    /// The Redis server is down until the instant.
+    /// The Redis server (or a Redis Cluster primary) is down until the instant.
     RedisDown(Instant),
 }
 
@@ -53,23 +55,19 @@ pub(super) struct Schedule {
 
 impl Schedule {
     /// The schedule of a run launched at `launched` whose pods start `start_delay` later and
-    /// run for `duration`, a fault every `fault_every`, Redis restarts among them if `redis`.
+    /// run for `duration`, a fault every `fault_every`, `kinds` in turn.
     pub(super) fn new(
         launched: Instant,
         start_delay: Duration,
         duration: Duration,
         fault_every: Duration,
-        redis: bool,
+        kinds: Vec<Fault>,
         seed: u64,
     ) -> Self {
         let started = launched + start_delay;
         Self {
             rng: seed.max(1),
-            kinds: VecDeque::from(if redis {
-                vec![Fault::Kill, Fault::RestartRedis, Fault::Stop]
-            } else {
-                vec![Fault::Kill, Fault::Stop]
-            }),
+            kinds: VecDeque::from(kinds),
             first_fault: started + fault_every,
             last_fault_by: started
                 + duration.saturating_sub(KILLED_FOR + SURVIVE_WITHIN + Duration::from_secs(2)),

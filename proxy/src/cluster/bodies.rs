@@ -77,7 +77,8 @@ impl Cluster {
     /// frame: that frame carries the entity's final pose and velocity with the new owner, this
     /// cluster turns its body into a proxy, and the new owner turns its proxy into the body.
     ///
-    /// Refused ([`ClusterError::Transfer`], with the reason) for a neighbour not heard from,
+    /// Refused ([`ClusterError::Transfer`], with the reason) while this cluster's transport is
+    /// down (the frame would reach nobody), for a neighbour not heard from,
     /// taken for dead or gone, one that cannot model the entity (a catalog shape it lacks) or
     /// lately did not take it, and, where the world map holds the neighbour, one whose region
     /// grown by its spread the entity's extent does not reach: it holds no proxy to take over.
@@ -87,6 +88,14 @@ impl Cluster {
         to: ClusterId,
     ) -> Result<(), ClusterError> {
         handoff::check(&self.sim, &self.config, &self.neighbours, entity, to)?;
+        if !self.transport.is_connected() {
+            return Err(ClusterError::Transfer {
+                entity,
+                to,
+                reason: "this cluster's transport is down: the frame that hands it would reach \
+                         nobody",
+            });
+        }
         if self
             .handoffs
             .declined_by(entity, to, self.sim.tick(), &self.config)

@@ -10,6 +10,7 @@ use crate::clock::monotonic_ns;
 use crate::error::ClusterError;
 use crate::events::ClusterEvent;
 use crate::handoff;
+use crate::replication::FrameHandoffs;
 
 impl Cluster {
     /// Gets the transport ready to publish this cluster's frames, so the first tick does not
@@ -60,13 +61,26 @@ impl Cluster {
 
     /// The replication frame: the owned states, with the hand-offs the policy and game code
     /// asked for; the bodies handed over become proxies.
+    ///
+    /// While this cluster's transport is down (a Redis outage, or a Redis Cluster shard it
+    /// uses without a primary) nothing is handed over, by the policy or by queued hand-offs:
+    /// the frame that hands a body would reach nobody, and the body would be nobody's until
+    /// the hand-off came back. They wait for the transport.
     fn publish_replication(&mut self, tick: u64) -> Result<(), ClusterError> {
-        self.ask_policy();
+        let up = self.transport.is_connected();
+        if up {
+            self.ask_policy();
+        } else {
+            self.publisher.gather(&self.sim, self.config.cluster_id);
+        }
         let handing = self.publisher.publish(
             self.transport.as_mut(),
             &self.config,
             tick,
-            &self.handoffs,
+            FrameHandoffs {
+                handoffs: &self.handoffs,
+                held: !up,
+            },
             &mut self.interest,
             &mut self.events,
         )?;

@@ -26,5 +26,5 @@ pub use interest::extent;
 pub(crate) use keys::Keys;
 pub use proxies::CustomProxy;
 pub(crate) use proxies::Proxies;
-pub(crate) use publish::Publisher;
+pub(crate) use publish::{FrameHandoffs, Publisher};
 pub(crate) use reconcile::Reconcile;

@@ -31,6 +31,13 @@ pub(crate) struct Publisher {
     states: Vec<EntityState>,
 }
 
+/// The hand-offs a frame carries: those in transit always, the queued ones unless `held`
+/// (while the transport is down; see `Cluster::publish_replication`).
+pub(crate) struct FrameHandoffs<'a> {
+    pub(crate) handoffs: &'a Handoffs,
+    pub(crate) held: bool,
+}
+
 impl Publisher {
     /// The publisher of `config`'s cluster.
     pub(crate) fn new(config: &ClusterConfig, incarnation: u64) -> Self {
@@ -58,14 +65,15 @@ impl Publisher {
     }
 
     /// Publishes the frame of `tick` from the states gathered: the queued hand-offs carry
-    /// their new owner, the room around this cluster's own bodies is followed, and the
-    /// hand-offs in transit ride along again. Returns the hand-offs made.
+    /// their new owner (unless they are held: they stay queued), the room around this
+    /// cluster's own bodies is followed, and the hand-offs in transit ride along again.
+    /// Returns the hand-offs made.
     pub(crate) fn publish(
         &mut self,
         transport: &mut dyn Transport,
         config: &ClusterConfig,
         tick: u64,
-        handoffs: &Handoffs,
+        handoffs: FrameHandoffs<'_>,
         interest: &mut Interest,
         events: &mut Events,
     ) -> Result<Vec<EntityState>, ClusterError> {
@@ -73,7 +81,12 @@ impl Publisher {
         let mut states = std::mem::take(&mut self.states);
         states.clear();
         states.extend(self.owned.iter().map(|(s, _)| *s));
-        let handing = handoffs.mark(&mut states);
+        let FrameHandoffs { handoffs, held } = handoffs;
+        let handing = if held {
+            Vec::new()
+        } else {
+            handoffs.mark(&mut states)
+        };
         interest.follow(
             states.iter().filter(|s| s.cluster_id == me),
             config.sweep_s(),

@@ -35,9 +35,9 @@ const RELEASE: &str = "if redis.call('GET', KEYS[1]) == ARGV[1] then \
 const POLL: Duration = Duration::from_millis(50);
 
 /// A name this transport holds.
-pub(super) struct Lease {
+pub(crate) struct Lease {
     name: String,
-    key: String,
+    pub(super) key: String,
     token: String,
     renewed: Instant,
 }
@@ -165,6 +165,9 @@ impl RedisTransport {
                     self.went_down();
                     return Ok(());
                 }
+                // A Redis Cluster in the middle of a change: renewed once it settles (and on
+                // the slot's new primary, where the cluster transport moves the lease).
+                Err(e) if self.sharded && super::sharded::settling(&e) => return Ok(()),
                 Err(e) => {
                     return Err(ClaimError::Unavailable {
                         name: self.leases[i].name.clone(),

@@ -162,6 +162,10 @@ impl RedisTransport {
                 self.redirected = e.redirect_node().map(|(addr, _)| addr.to_owned());
                 return Ok(0);
             }
+            Err(e) if self.sharded && sharded::settling(&e) => {
+                self.intake.stats.dropped_while_down += 1;
+                return Ok(0);
+            }
             Err(e) => {
                 return Err(PublishError::Disconnected {
                     addr: self.addr.clone(),

@@ -20,6 +20,17 @@ pub(super) fn command(sharded: bool, plain: &'static str) -> &'static str {
     }
 }
 
+/// Whether `e` is a Redis Cluster's answer while it changes (a slot elsewhere now, moving,
+/// or without a primary for the moment): what was asked is dropped or tried again later, not
+/// an error.
+pub(super) fn settling(e: &redis::RedisError) -> bool {
+    use redis::{ErrorKind, ServerErrorKind as S};
+    matches!(
+        e.kind(),
+        ErrorKind::Server(S::Moved | S::Ask | S::TryAgain | S::ClusterDown | S::MasterDown)
+    )
+}
+
 /// The answer to a pattern subscription on sharded pub/sub, which has none: a channel lives
 /// on the shard of its slot, a pattern would span them all.
 pub(crate) fn no_patterns() -> SubscribeError {
@@ -70,6 +81,22 @@ impl RedisTransport {
         self.subscriptions
             .retain(|(_, name)| !dropped.iter().any(|d| d == name));
         dropped
+    }
+
+    /// The keys of the leases it holds.
+    pub(crate) fn lease_keys(&self) -> Vec<String> {
+        self.leases.iter().map(|l| l.key.clone()).collect()
+    }
+
+    /// Takes out the lease at `key` (to be renewed on another node).
+    pub(crate) fn remove_lease(&mut self, key: &str) -> Option<super::lease::Lease> {
+        let at = self.leases.iter().position(|l| l.key == key)?;
+        Some(self.leases.swap_remove(at))
+    }
+
+    /// Holds `lease`, taken from another node's transport, from now on.
+    pub(crate) fn give_lease(&mut self, lease: super::lease::Lease) {
+        self.leases.push(lease);
     }
 
     /// Runs one command on the publishing connection (`CLUSTER SLOTS`, say).

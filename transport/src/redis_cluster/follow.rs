@@ -13,14 +13,28 @@ impl RedisClusterTransport {
     /// every channel on a link that is down, reading the slot map again first (at most every
     /// [`REFRESH_WHILE_DOWN`] while a link is down and nothing was dropped).
     pub(super) fn follow(&mut self) {
-        let mut dropped: Vec<String> = Vec::new();
-        for link in &mut self.links {
-            dropped.extend(link.take_dropped_by_server());
-        }
+        let dropped = self.take_dropped();
         let down = self.links.iter().any(|l| !l.is_connected());
         if dropped.is_empty() && !(down && self.last_refresh.elapsed() >= REFRESH_WHILE_DOWN) {
             return;
         }
+        self.follow_dropped(&dropped);
+    }
+
+    /// Reads the slot map again and moves what it must (see [`Self::follow`]), now.
+    pub(super) fn follow_always(&mut self) {
+        let dropped = self.take_dropped();
+        self.follow_dropped(&dropped);
+    }
+
+    /// The channels the links' nodes dropped unasked since last asked.
+    fn take_dropped(&mut self) -> Vec<String> {
+        (self.links.iter_mut())
+            .flat_map(|link| link.take_dropped_by_server())
+            .collect()
+    }
+
+    fn follow_dropped(&mut self, dropped: &[String]) {
         if !dropped.is_empty() {
             tracing::info!(
                 channels = dropped.len(),
@@ -28,7 +42,31 @@ impl RedisClusterTransport {
             );
         }
         self.refresh();
-        self.move_subscriptions(&dropped);
+        self.move_subscriptions(dropped);
+        self.move_leases();
+        self.retire_idle_links();
+    }
+
+    /// Closes the links that are down and hold nothing (no subscription, no lease: what they
+    /// held moved to another primary), keeping their counts: a node that is gone is not
+    /// tried again, nor counted as down from then on.
+    fn retire_idle_links(&mut self) {
+        let mut i = 0;
+        while i < self.links.len() {
+            let link = &self.links[i];
+            if link.is_connected() || link.has_subscriptions() || !link.lease_keys().is_empty() {
+                i += 1;
+                continue;
+            }
+            self.retired.add(&link.counters());
+            self.links.remove(i);
+            for (_, at) in &mut self.subscribed {
+                if *at > i {
+                    *at -= 1;
+                }
+            }
+            self.next = 0;
+        }
     }
 
     /// Reads the slot map again from the first node that gives one: the links' nodes that
@@ -91,6 +129,25 @@ impl RedisClusterTransport {
                 node = %primary,
                 "sharded channel subscribed again at its slot's primary"
             );
+        }
+    }
+
+    /// Moves each lease to the link of its key's slot's primary now (after a failover or a
+    /// slot move), where it is renewed from then on.
+    pub(super) fn move_leases(&mut self) {
+        for from in 0..self.links.len() {
+            for key in self.links[from].lease_keys() {
+                let primary = self.slots.primary_of(&key).to_owned();
+                if self.links[from].addr() == primary {
+                    continue;
+                }
+                let Ok(to) = self.link(&primary) else {
+                    continue;
+                };
+                if let Some(lease) = self.links[from].remove_lease(&key) {
+                    self.links[to].give_lease(lease);
+                }
+            }
         }
     }
 }

@@ -47,6 +47,10 @@ use slots::{SlotMap, slot_of};
 /// How often the slot map is read again while a link is down.
 pub const REFRESH_WHILE_DOWN: Duration = Duration::from_millis(200);
 
+/// How long a claim is asked again while the cluster cannot answer it (its primary down until
+/// a replica takes over).
+const CLAIM_SETTLES_WITHIN: Duration = Duration::from_secs(6);
+
 /// A transport over a Redis Cluster.
 pub struct RedisClusterTransport {
     /// `redis://` and credentials, to which a node's `host:port` and the settings are added.
@@ -66,6 +70,8 @@ pub struct RedisClusterTransport {
     current: Option<usize>,
     /// The link read first by the next receive (round robin).
     next: usize,
+    /// Counts of links closed (their node gone).
+    retired: Stats,
     resubscribes: u64,
     redirects: u64,
     /// Publishes dropped because the primary of their slot could not be reached.
@@ -90,6 +96,7 @@ impl RedisClusterTransport {
             subscribed: Vec::new(),
             current: None,
             next: 0,
+            retired: Stats::default(),
             resubscribes: 0,
             redirects: 0,
             dropped_unreachable: 0,
@@ -268,16 +275,30 @@ impl Transport for RedisClusterTransport {
     }
 
     fn claim(&mut self, name: &str, holder: &str) -> Result<u64, ClaimError> {
-        let link = self
-            .link_for(&claim_key(name))
-            .map_err(|e| ClaimError::Unavailable {
-                name: name.to_owned(),
-                reason: e.to_string(),
-            })?;
-        self.links[link].claim(name, holder)
+        // The key's primary may be down or moving (a pod restarted during a failover): asked
+        // again, from a fresh slot map, for up to `CLAIM_SETTLES_WITHIN`.
+        let deadline = Instant::now() + CLAIM_SETTLES_WITHIN;
+        loop {
+            let answer = match self.link_for(&claim_key(name)) {
+                Ok(link) => self.links[link].claim(name, holder),
+                Err(e) => Err(ClaimError::Unavailable {
+                    name: name.to_owned(),
+                    reason: e.to_string(),
+                }),
+            };
+            match answer {
+                Err(ClaimError::Unavailable { .. }) if Instant::now() < deadline => {
+                    std::thread::sleep(REFRESH_WHILE_DOWN / 2);
+                    self.follow_always();
+                }
+                answer => return answer,
+            }
+        }
     }
 
     fn keep_claims(&mut self) -> Result<(), ClaimError> {
+        self.follow();
+        self.move_leases();
         self.links
             .iter_mut()
             .try_for_each(|link| link.keep_claims())
@@ -344,7 +365,7 @@ impl Transport for RedisClusterTransport {
     }
 
     fn stats(&self) -> Stats {
-        let mut total = Stats::default();
+        let mut total = self.retired;
         for link in &self.links {
             total.add(&link.counters());
         }

@@ -51,7 +51,8 @@ mod tests {
     #[test]
     fn seeds_credentials_and_settings_are_read_and_bad_ones_named() {
         let (node, seeds, query) =
-            parse("redis-cluster://u:pw@127.0.0.1:7000,127.0.0.1:7001?timeout_ms=900").unwrap();
+            parse("redis-cluster://u:pw@127.0.0.1:7000,127.0.0.1:7001?timeout_ms=900")
+                .expect("reads");
         assert_eq!(node, "redis://u:pw@");
         assert_eq!(seeds, ["127.0.0.1:7000", "127.0.0.1:7001"]);
         assert_eq!(query, "?timeout_ms=900");
@@ -66,7 +67,7 @@ mod tests {
             assert!(error.contains("invalid transport URL"), "{bad}: {error}");
         }
         let error = parse("redis-cluster://:secret@h:1/0")
-            .unwrap_err()
+            .expect_err("a database")
             .to_string();
         assert!(!error.contains("secret"), "{error}");
     }

@@ -21,6 +21,14 @@ pub struct FaultCounts {
     pub redis_restart: u64,
     /// Survived.
     pub redis_restart_survived: u64,
+    /// Redis Cluster primaries killed (and started again a few seconds later).
+    pub primary_kill: u64,
+    /// Survived.
+    pub primary_kill_survived: u64,
+    /// Slots of live channels moved to another Redis Cluster primary.
+    pub slot_move: u64,
+    /// Survived.
+    pub slot_move_survived: u64,
 }
 
 impl FaultCounts {
@@ -29,6 +37,8 @@ impl FaultCounts {
             Fault::Kill => self.kill_survived += 1,
             Fault::Stop => self.stop_survived += 1,
             Fault::RestartRedis => self.redis_restart_survived += 1,
+            Fault::KillPrimary => self.primary_kill_survived += 1,
+            Fault::MoveSlot => self.slot_move_survived += 1,
         }
     }
 
@@ -36,18 +46,33 @@ impl FaultCounts {
         self.kill == self.kill_survived
             && self.stop == self.stop_survived
             && self.redis_restart == self.redis_restart_survived
+            && self.primary_kill == self.primary_kill_survived
+            && self.slot_move == self.slot_move_survived
     }
 
-    /// The fault kinds a run planned (Redis restarts only over Redis) and never injected: a run
-    /// without faults proves nothing.
-    pub(super) fn missing(&self, redis: bool) -> Vec<String> {
+    /// Counts `fault` injected.
+    pub(crate) fn injected(&mut self, fault: Fault) {
+        *match fault {
+            Fault::Kill => &mut self.kill,
+            Fault::Stop => &mut self.stop,
+            Fault::RestartRedis => &mut self.redis_restart,
+            Fault::KillPrimary => &mut self.primary_kill,
+            Fault::MoveSlot => &mut self.slot_move,
+        } += 1;
+    }
+
+    /// The fault kinds a run planned (`planned`) and never injected: a run without faults
+    /// proves nothing.
+    pub(super) fn missing(&self, planned: &[Fault]) -> Vec<String> {
         let mut missing = Vec::new();
-        for (name, count, planned) in [
-            ("kill", self.kill, true),
-            ("stop", self.stop, true),
-            ("Redis restart", self.redis_restart, redis),
+        for (name, count, kind) in [
+            ("kill", self.kill, Fault::Kill),
+            ("stop", self.stop, Fault::Stop),
+            ("Redis restart", self.redis_restart, Fault::RestartRedis),
+            ("primary kill", self.primary_kill, Fault::KillPrimary),
+            ("slot move", self.slot_move, Fault::MoveSlot),
         ] {
-            if planned && count == 0 {
+            if planned.contains(&kind) && count == 0 {
                 missing.push(format!(
                     "no {name} was injected (run longer or fault more often)"
                 ));

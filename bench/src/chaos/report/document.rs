@@ -88,6 +88,16 @@ fn faults_table(r: &ChaosReport) -> Table {
             f.redis_restart,
             f.redis_restart_survived,
         ),
+        (
+            "Redis Cluster primary kill + restart 3 s later",
+            f.primary_kill,
+            f.primary_kill_survived,
+        ),
+        (
+            "Redis Cluster slot of a live channel moved",
+            f.slot_move,
+            f.slot_move_survived,
+        ),
     ] {
         table.row(vec![name.to_owned(), n.to_string(), ok.to_string()]);
     }
@@ -318,7 +328,9 @@ fn by_name_line(what: &str, n: &NameCounts, counted: u64) -> String {
 }
 
 fn transport(r: &ChaosReport) -> &'static str {
-    if r.transport.starts_with("redis") {
+    if r.transport.starts_with("redis-cluster") {
+        "Redis Cluster"
+    } else if r.transport.starts_with("redis") {
         "Redis"
     } else {
         "shm"
@@ -327,8 +339,16 @@ fn transport(r: &ChaosReport) -> &'static str {
 
 /// RELIABILITY.md's first table, one row: what was injected and what held.
 fn held_row(r: &ChaosReport) -> Table {
-    let redis = transport(r) == "Redis";
     let f = &r.faults;
+    let redis_faults = match transport(r) {
+        "Redis" => pair(f.redis_restart, f.redis_restart_survived),
+        "Redis Cluster" => format!(
+            "primary killed {}, slot moved {}",
+            pair(f.primary_kill, f.primary_kill_survived),
+            pair(f.slot_move, f.slot_move_survived)
+        ),
+        _ => "—".to_owned(),
+    };
     let memory: Vec<String> = r
         .memory
         .iter()
@@ -349,7 +369,10 @@ fn held_row(r: &ChaosReport) -> Table {
         ("pods", Right),
         ("kill", Right),
         ("stop", Right),
-        ("Redis restart", Right),
+        (
+            "Redis restart (Redis Cluster: primary killed, slot moved)",
+            Right,
+        ),
         ("garbage delivered / refused", Right),
         ("forged delivered / replays", Right),
         ("entities expected / once / lost / twice", Left),
@@ -365,11 +388,7 @@ fn held_row(r: &ChaosReport) -> Table {
         r.pods.to_string(),
         pair(f.kill, f.kill_survived),
         pair(f.stop, f.stop_survived),
-        if redis {
-            pair(f.redis_restart, f.redis_restart_survived)
-        } else {
-            "—".to_owned()
-        },
+        redis_faults,
         if r.keyed {
             pair(
                 r.injected.garbage_deliveries + r.injected.forged_deliveries,

@@ -89,8 +89,8 @@ pub(super) struct Inputs<'a> {
     pub transport: String,
     /// The pods had a frame key (the injector had none).
     pub keyed: bool,
-    /// Redis restarts were planned.
-    pub redis: bool,
+    /// The fault kinds the run took in turn.
+    pub planned: Vec<crate::chaos::Fault>,
     pub rate: f64,
     pub duration_s: f64,
     pub wall_s: f64,
@@ -200,7 +200,7 @@ impl ChaosReport {
             wall_s: inputs.wall_s,
             faults: inputs.faults,
             failed_faults: inputs.failed_faults,
-            faults_missing: inputs.faults.missing(inputs.redis),
+            faults_missing: inputs.faults.missing(&inputs.planned),
             keyed: inputs.keyed,
             injected: inputs.injected,
             frames,

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use seam_bench::chaos::ChaosPlan;
+use seam_bench::chaos::{Broker, ChaosPlan};
 use seam_bench::console::Progress;
 use seam_bench::error::{BenchError, BenchResult};
 use seam_bench::node;
@@ -17,8 +17,11 @@ use crate::cli::Output;
 pub(crate) struct ChaosArgs {
     /// The scene file (TOML), e.g. bench/scenes/crossfire.toml.
     scene: PathBuf,
-    /// `shm`, or `redis` for a private redis-server (needs `redis-server` on the PATH).
-    #[arg(long, default_value = "shm", value_parser = ["shm", "redis"])]
+    /// `shm`; `redis` for a private redis-server (needs `redis-server` on the PATH), killed
+    /// and restarted among the faults; or `redis-cluster` for a private Redis Cluster made by
+    /// tools/redis-cluster (three primaries, three replicas), whose faults add a primary
+    /// killed (its replica takes over) and the slot of a live channel moved.
+    #[arg(long, default_value = "shm", value_parser = ["shm", "redis", "redis-cluster"])]
     transport: String,
     /// How long the pods run, seconds.
     #[arg(long, default_value_t = 60.0)]
@@ -61,7 +64,11 @@ impl ChaosArgs {
         }
         Ok(ChaosPlan {
             scene: self.scene.clone(),
-            redis: self.transport == "redis",
+            broker: match self.transport.as_str() {
+                "redis" => Broker::Redis,
+                "redis-cluster" => Broker::RedisCluster,
+                _ => Broker::Shm,
+            },
             rate: self.rate,
             duration,
             fault_every,
