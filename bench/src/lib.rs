@@ -34,6 +34,8 @@
 //!   lines otherwise), logs printed above the bar.
 //! - [`redis_server`] — a private `redis-server` child that runs and tests can crash and
 //!   restart, and a Redis server's CPU time (`INFO cpu`).
+//! - [`redis_cluster`] — a private Redis Cluster (`tools/redis-cluster`) that runs and tests
+//!   change under load: a primary killed and started again, a slot moved.
 //! - [`scene`] — the scene format (`bench/scenes/*.toml`) and its checks.
 //! - [`wait`] — spinning or sleeping for the next message ([`wait::WaitMode`]).
 //! - [`latency`] — latency recording (hdrhistogram) and percentile summaries.

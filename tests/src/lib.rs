@@ -6,7 +6,10 @@
 //!   shared memory, unique channel names everywhere) and the Redis policy below.
 //! - `src/bin/peer.rs` — `seam-test-peer`, the child process that cross-process tests spawn.
 //! - `src/bin/node.rs` — `seam-test-node`, which is `seam node`, for the pod tests.
-//! - `tests/conformance.rs` — the transport contract, written once and run on shm, local, redis.
+//! - `tests/conformance.rs` — the transport contract, written once and run on shm, local, redis
+//!   and a Redis Cluster.
+//! - `tests/redis_cluster.rs` — a Redis Cluster changed under the transport: a slot moved, a
+//!   primary killed; no cluster to use.
 //! - `tests/cross_process.rs` — shm and redis between two real processes.
 //! - `tests/alloc_free.rs` — the steady-state shm path adds no allocation to iceoryx2's own.
 //! - `tests/errors.rs` — errors that name what is wrong; passwords never shown.
@@ -40,6 +43,9 @@
 //!
 //! Redis tests talk to `SEAM_REDIS_URL` (default `redis://127.0.0.1:6379`). When no server answers
 //! they print a skip notice and pass, unless `SEAM_REQUIRE_REDIS=1`, under which they fail.
+//! Redis Cluster tests use `SEAM_REDIS_CLUSTER_URL`, or else a cluster each test process makes
+//! with `tools/redis-cluster` (so `redis-server` and `redis-cli` must be installed), under the
+//! same skip rule.
 
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};

@@ -1,6 +1,6 @@
 //! seam-transport — publish-subscribe in Redis's vocabulary, on iceoryx2 shared memory for
-//! cluster pods of one host, on iceoryx2 in-process for single-process runs, and on Redis for
-//! pods on different hosts.
+//! cluster pods of one host, on iceoryx2 in-process for single-process runs, and on Redis (one
+//! server, or a Redis Cluster) for pods on different hosts.
 //!
 //! Everything above this crate talks to [`Transport`] only, and picks a backend at run time with
 //! a URL ([`open`]), so swapping shared memory for Redis changes no game code and the same op can
@@ -11,8 +11,10 @@
 //! | `shm`, `shm?prefix=test42&buffer=64` | [`ShmTransport`]: iceoryx2 `ipc::Service`, across processes |
 //! | `local` | [`LocalTransport`]: iceoryx2 `local::Service`, one process |
 //! | `redis://[user:password@]host:port[/db]` | [`RedisTransport`] |
+//! | `redis-cluster://[user:password@]host:port[,host:port…]` | [`RedisClusterTransport`]: sharded pub/sub |
 //!
-//! Shared-memory settings are listed on [`IceoryxConfig`]; Redis settings on [`RedisConfig`].
+//! Shared-memory settings are listed on [`IceoryxConfig`]; Redis settings on [`RedisConfig`]
+//! (a Redis Cluster takes the same).
 //!
 //! # Layout
 //!
@@ -25,6 +27,8 @@
 //! - `error` — one error type per operation.
 //! - `iceoryx` — the generic iceoryx2 backend behind `shm` and `local`.
 //! - `redis` — the Redis backend.
+//! - `redis_cluster` — the Redis Cluster backend: slot routing, one sharded Redis link per
+//!   primary, following slot moves and failovers.
 //! - [`auth`] — frame keys: the keyed tag a message carries when a deployment sets one.
 //! - `url` — the one reader of a URL's `?key=value` settings.
 //! - `fuzzing` — entry points for the fuzz targets in `fuzz/` (hidden; not part of the API).

@@ -179,6 +179,23 @@ impl RedisTransport {
         Ok(())
     }
 
+    /// The keys of the leases it holds (a Redis Cluster's transport moves them between
+    /// nodes).
+    pub(crate) fn lease_keys(&self) -> Vec<String> {
+        self.leases.iter().map(|l| l.key.clone()).collect()
+    }
+
+    /// Takes out the lease at `key` (to be renewed on another node).
+    pub(crate) fn remove_lease(&mut self, key: &str) -> Option<Lease> {
+        let at = self.leases.iter().position(|l| l.key == key)?;
+        Some(self.leases.swap_remove(at))
+    }
+
+    /// Holds `lease`, taken from another node's transport, from now on.
+    pub(crate) fn give_lease(&mut self, lease: Lease) {
+        self.leases.push(lease);
+    }
+
     /// Gives up every lease still this transport's (when it is dropped).
     pub(super) fn release_leases(&mut self) {
         for lease in std::mem::take(&mut self.leases) {

@@ -83,22 +83,6 @@ impl RedisTransport {
         dropped
     }
 
-    /// The keys of the leases it holds.
-    pub(crate) fn lease_keys(&self) -> Vec<String> {
-        self.leases.iter().map(|l| l.key.clone()).collect()
-    }
-
-    /// Takes out the lease at `key` (to be renewed on another node).
-    pub(crate) fn remove_lease(&mut self, key: &str) -> Option<super::lease::Lease> {
-        let at = self.leases.iter().position(|l| l.key == key)?;
-        Some(self.leases.swap_remove(at))
-    }
-
-    /// Holds `lease`, taken from another node's transport, from now on.
-    pub(crate) fn give_lease(&mut self, lease: super::lease::Lease) {
-        self.leases.push(lease);
-    }
-
     /// Runs one command on the publishing connection (`CLUSTER SLOTS`, say).
     pub(crate) fn query(&mut self, cmd: &redis::Cmd) -> redis::RedisResult<redis::Value> {
         cmd.query(&mut self.publisher)
