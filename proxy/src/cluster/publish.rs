@@ -65,9 +65,11 @@ impl Cluster {
     /// While this cluster's transport is down (a Redis outage, or a Redis Cluster shard it
     /// uses without a primary) nothing is handed over, by the policy or by queued hand-offs:
     /// the frame that hands a body would reach nobody, and the body would be nobody's until
-    /// the hand-off came back. They wait for the transport.
+    /// the hand-off came back. They wait for the transport. So do those of a frame the
+    /// transport dropped as it found its server gone (a primary killed between two ticks).
     fn publish_replication(&mut self, tick: u64) -> Result<(), ClusterError> {
         let up = self.transport.is_connected();
+        let dropped_before = self.transport.stats().dropped_while_down;
         if up {
             self.ask_policy();
         } else {
@@ -84,6 +86,9 @@ impl Cluster {
             &mut self.interest,
             &mut self.events,
         )?;
+        if self.transport.stats().dropped_while_down > dropped_before {
+            return Ok(());
+        }
         for handed in &handing {
             self.custody.release(handed.id);
         }

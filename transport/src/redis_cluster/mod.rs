@@ -45,7 +45,7 @@ use crate::{Backend, Message, Origin, Stats, Transport};
 use slots::{SlotMap, slot_of};
 
 /// How often the slot map is read again while a link is down.
-pub const REFRESH_WHILE_DOWN: Duration = Duration::from_millis(200);
+pub const REFRESH_WHILE_DOWN: Duration = Duration::from_millis(50);
 
 /// How long a claim is asked again while the cluster cannot answer it (its primary down until
 /// a replica takes over).
