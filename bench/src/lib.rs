@@ -34,6 +34,8 @@
 //!   lines otherwise), logs printed above the bar.
 //! - [`redis_server`] — a private `redis-server` child that runs and tests can crash and
 //!   restart, and a Redis server's CPU time (`INFO cpu`).
+//! - [`throughput`] — `seam throughput`: messages a second through one Redis server and
+//!   Redis Clusters of 1 and 3 primaries, with each server's CPU.
 //! - [`redis_cluster`] — a private Redis Cluster (`tools/redis-cluster`) that runs and tests
 //!   change under load: a primary killed and started again, a slot moved.
 //! - [`scene`] — the scene format (`bench/scenes/*.toml`) and its checks.
@@ -73,4 +75,5 @@ pub mod relay;
 pub mod run;
 pub mod scene;
 pub mod sweep;
+pub mod throughput;
 pub mod wait;

@@ -1,5 +1,5 @@
 //! A private Redis Cluster for runs and tests that change it under load: three primaries and
-//! three replicas on loopback ports of its own, made and taken down by the repository's
+//! three replicas (or fewer of each) on loopback ports of its own, made and taken down by the repository's
 //! `tools/redis-cluster` (the one way a cluster is made here), and changed with `redis-cli`:
 //! a primary killed as a crash would (its replica takes over), started again (it rejoins as a
 //! replica), the slot of a channel moved to another primary.
@@ -19,6 +19,7 @@ pub fn script() -> PathBuf {
 pub struct RedisCluster {
     url: String,
     base: u16,
+    primaries: u16,
     dir: PathBuf,
     take_down: bool,
 }
@@ -39,18 +40,23 @@ pub struct ClusterNode {
 }
 
 impl RedisCluster {
-    /// Makes a cluster on free ports; taken down when dropped.
+    /// Makes a cluster of three primaries on free ports; taken down when dropped.
     pub fn start() -> BenchResult<Self> {
-        Self::make(None)
+        Self::make(None, 3)
+    }
+
+    /// Makes a cluster of `primaries` primaries (1 to 3), each with a replica.
+    pub fn start_with(primaries: u16) -> BenchResult<Self> {
+        Self::make(None, primaries)
     }
 
     /// Makes a cluster that lives as long as this process (the script takes it down when the
     /// process exits): for a fixture shared by every test of a process.
     pub fn start_for_process() -> BenchResult<Self> {
-        Self::make(Some(std::process::id()))
+        Self::make(Some(std::process::id()), 3)
     }
 
-    fn make(owner: Option<u32>) -> BenchResult<Self> {
+    fn make(owner: Option<u32>, primaries: u16) -> BenchResult<Self> {
         use std::sync::atomic::{AtomicU32, Ordering};
         static NEXT: AtomicU32 = AtomicU32::new(0);
         let pid = std::process::id();
@@ -64,6 +70,7 @@ impl RedisCluster {
             let mut command = Command::new(script());
             command.args(["up", "--port", &base.to_string(), "--dir"]);
             command.arg(&dir);
+            command.args(["--primaries", &primaries.to_string()]);
             if let Some(owner) = owner {
                 command.args(["--owner-pid", &owner.to_string()]);
             }
@@ -78,6 +85,7 @@ impl RedisCluster {
                 return Ok(Self {
                     url: url.trim().to_owned(),
                     base,
+                    primaries,
                     dir,
                     take_down: owner.is_none(),
                 });
@@ -95,9 +103,9 @@ impl RedisCluster {
         &self.url
     }
 
-    /// The ports of its six nodes.
+    /// The ports of its nodes (primaries first, then their replicas).
     pub fn ports(&self) -> impl Iterator<Item = u16> + '_ {
-        (0..6).map(|i| self.base + i)
+        (0..2 * self.primaries).map(|i| self.base + i)
     }
 
     /// The nodes as a live node lists them (`None`: none answers).

@@ -36,6 +36,7 @@
 //! - `tests/pods.rs` — the main job end to end, over shm and Redis.
 //! - `tests/chaos.rs` — `seam chaos` end to end, short.
 //! - `tests/capacity.rs` — `seam capacity` finds a size, and its table agrees with itself.
+//! - `tests/throughput.rs` — `seam throughput` carries a small load on a server and a cluster.
 //! - `tests/inspector.rs` — a recorded run's page in headless Chromium.
 //! - `tests/fuzz_corpus.rs` — every input kept for the fuzz targets, replayed.
 //! - `tests/shape.rs` — no import circle; files and functions within their bounds; every

@@ -6,7 +6,9 @@ use seam_bench::bridge::BridgeArgs;
 use seam_bench::document::Document;
 use seam_bench::node::NodeArgs;
 
-use crate::cmd::{capacity, chaos, compare, inspect, network, ops, ping, run, scene, sweep};
+use crate::cmd::{
+    capacity, chaos, compare, inspect, network, ops, ping, run, scene, sweep, throughput,
+};
 
 #[derive(Parser)]
 #[command(
@@ -138,6 +140,14 @@ pub(crate) enum Command {
     /// Beside each `shm` row it measures plain iceoryx2 (no seam layer, busy-polling) as the
     /// floor, and prints the shm / iceoryx2 and redis / shm ratios of one run.
     Ping(ping::PingArgs),
+    /// Measure messages a second through one Redis server and through Redis Clusters.
+    ///
+    /// Makes each target itself (a private redis-server; private clusters of 1 and 3 primaries
+    /// made by tools/redis-cluster), offers it fixed loads (publisher threads, each with its
+    /// own transport, over channels spread across the cluster's slots; subscriber threads on
+    /// every channel), and prints per load the messages published and delivered a second and
+    /// the busiest and mean primary's CPU, with the largest load each target carried.
+    Throughput(throughput::ThroughputArgs),
     /// Measure routed-op latency between two processes, stage by stage, per transport.
     ///
     /// This process issues batches of impulses on an entity a child process owns, as real

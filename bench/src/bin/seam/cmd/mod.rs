@@ -14,6 +14,7 @@ pub(crate) mod ping;
 pub(crate) mod run;
 pub(crate) mod scene;
 pub(crate) mod sweep;
+pub(crate) mod throughput;
 
 use std::ffi::OsString;
 use std::path::PathBuf;
