@@ -14,8 +14,10 @@ impl RedisClusterTransport {
     /// [`REFRESH_WHILE_DOWN`] while a link is down and nothing was dropped).
     pub(super) fn follow(&mut self) {
         let dropped = self.take_dropped();
-        let down = self.links.iter().any(|l| !l.is_connected());
-        if dropped.is_empty() && !(down && self.last_refresh.elapsed() >= REFRESH_WHILE_DOWN) {
+        // A link down, or a primary the map names that could not be reached (its link closed
+        // already): the map may be stale.
+        let stale = self.map_suspect || self.links.iter().any(|l| !l.is_connected());
+        if dropped.is_empty() && !(stale && self.last_refresh.elapsed() >= REFRESH_WHILE_DOWN) {
             return;
         }
         self.follow_dropped(&dropped);
@@ -73,6 +75,7 @@ impl RedisClusterTransport {
     /// are up, then the seeds. Keeps the old map if none does.
     fn refresh(&mut self) {
         self.last_refresh = Instant::now();
+        self.map_suspect = false;
         let mut asked: Vec<String> = self
             .links
             .iter()
@@ -113,6 +116,7 @@ impl RedisClusterTransport {
                 continue;
             }
             let Ok(to) = self.link(&primary) else {
+                self.map_suspect = true;
                 continue;
             };
             if self.links[to].subscribe(&channel).is_err() {
@@ -142,6 +146,7 @@ impl RedisClusterTransport {
                     continue;
                 }
                 let Ok(to) = self.link(&primary) else {
+                    self.map_suspect = true;
                     continue;
                 };
                 if let Some(lease) = self.links[from].remove_lease(&key) {

@@ -76,6 +76,9 @@ pub struct RedisClusterTransport {
     redirects: u64,
     /// Publishes dropped because the primary of their slot could not be reached.
     dropped_unreachable: u64,
+    /// A primary the map names could not be reached: the map is read again (at most every
+    /// [`REFRESH_WHILE_DOWN`]) until one that names reachable primaries comes.
+    map_suspect: bool,
     last_refresh: Instant,
 }
 
@@ -100,6 +103,7 @@ impl RedisClusterTransport {
             resubscribes: 0,
             redirects: 0,
             dropped_unreachable: 0,
+            map_suspect: false,
             last_refresh: Instant::now(),
         };
         let mut failures = Vec::new();
@@ -172,7 +176,7 @@ impl RedisClusterTransport {
         for _ in 0..3 {
             let Ok(link) = self.link_for(channel) else {
                 self.dropped_unreachable += 1;
-                self.last_refresh = Instant::now() - REFRESH_WHILE_DOWN;
+                self.map_suspect = true;
                 return Ok(0);
             };
             let payload = std::mem::take(&mut self.out);
@@ -310,12 +314,12 @@ impl Transport for RedisClusterTransport {
             return Ok(());
         }
         self.follow();
-        let link = self
-            .link_for(channel)
-            .map_err(|e| SubscribeError::Disconnected {
-                addr: self.slots.primary_of(channel).to_owned(),
-                reason: e.to_string(),
-            })?;
+        let link = self.link_for(channel);
+        self.map_suspect |= link.is_err();
+        let link = link.map_err(|e| SubscribeError::Disconnected {
+            addr: self.slots.primary_of(channel).to_owned(),
+            reason: e.to_string(),
+        })?;
         self.links[link].subscribe(channel)?;
         self.subscribed.push((channel.to_owned(), link));
         Ok(())
