@@ -240,6 +240,33 @@ pub fn private_cluster() -> Option<seam_bench::redis_cluster::RedisCluster> {
     }
 }
 
+/// Publishes on `channel` until `receiver` gets a message on it (after an outage or a change of
+/// server both sides must find the server first); panics after `within`, with both sides'
+/// counters.
+pub fn until_received(
+    publisher: &mut dyn Transport,
+    receiver: &mut dyn Transport,
+    channel: &str,
+    within: Duration,
+) {
+    let deadline = std::time::Instant::now() + within;
+    while std::time::Instant::now() < deadline {
+        publisher.publish(channel, b"after").expect("publish");
+        if let Some(message) = receiver
+            .receive_timeout(Duration::from_millis(50))
+            .expect("receive")
+            && message.channel == channel
+        {
+            return;
+        }
+    }
+    panic!(
+        "nothing on {channel} arrived within {within:?}; publisher {:?}, receiver {:?}",
+        publisher.stats(),
+        receiver.stats()
+    );
+}
+
 /// Receives one message, waiting up to `timeout`; panics on a transport error.
 pub fn receive(transport: &mut dyn Transport, timeout: Duration) -> Option<OwnedMessage> {
     transport

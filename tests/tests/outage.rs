@@ -6,32 +6,9 @@
 use std::time::{Duration, Instant};
 
 use seam_proxy::monotonic_ns;
-use seam_tests::{finish_pod, private_redis, scene_path, start_pod};
-use seam_transport::Transport;
+use seam_tests::{finish_pod, private_redis, scene_path, start_pod, until_received};
 
 const NODE: &str = env!("CARGO_BIN_EXE_seam-test-node");
-
-/// Publishes on `channel` until `receiver` gets a message on it (after a restart both sides
-/// must reconnect first); panics after `within`.
-fn until_received(
-    publisher: &mut dyn Transport,
-    receiver: &mut dyn Transport,
-    channel: &str,
-    within: Duration,
-) {
-    let deadline = Instant::now() + within;
-    while Instant::now() < deadline {
-        publisher.publish(channel, b"after").expect("publish");
-        if let Some(message) = receiver
-            .receive_timeout(Duration::from_millis(50))
-            .expect("receive")
-            && message.channel == channel
-        {
-            return;
-        }
-    }
-    panic!("nothing on {channel} arrived within {within:?} of the restart");
-}
 
 #[test]
 fn the_redis_transport_reconnects_and_resubscribes() {

@@ -5,35 +5,10 @@
 //! new primary) and count it. Also what it says when there is no cluster to use. Without
 //! `redis-server` these skip, or fail under `SEAM_REQUIRE_REDIS=1`.
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use seam_tests::private_cluster;
+use seam_tests::{private_cluster, until_received};
 use seam_transport::{OpenError, Transport};
-
-/// Publishes on `channel` until `receiver` gets a message on it; panics after `within`.
-fn until_received(
-    publisher: &mut dyn Transport,
-    receiver: &mut dyn Transport,
-    channel: &str,
-    within: Duration,
-) {
-    let deadline = Instant::now() + within;
-    while Instant::now() < deadline {
-        publisher.publish(channel, b"x").expect("publish");
-        if let Some(message) = receiver
-            .receive_timeout(Duration::from_millis(50))
-            .expect("receive")
-            && message.channel == channel
-        {
-            return;
-        }
-    }
-    panic!(
-        "nothing on {channel} arrived within {within:?}; publisher {:?}, receiver {:?}",
-        publisher.stats(),
-        receiver.stats()
-    );
-}
 
 fn open(url: &str) -> Box<dyn Transport> {
     seam_transport::open(url).unwrap_or_else(|e| panic!("cannot open {url}: {e}"))

@@ -219,15 +219,7 @@ impl Transport for RedisTransport {
         origin: crate::Origin,
         payload: &[u8],
     ) -> Result<usize, PublishError> {
-        check_publish(channel, payload.len(), self.config.max_payload)?;
-        if self.config.reconnect && !self.up() {
-            self.intake.stats.dropped_while_down += 1;
-            return Ok(0);
-        }
-        self.out.clear();
-        self.out.resize(Envelope::WIRE_LEN, 0);
-        self.out.extend_from_slice(payload);
-        self.send(channel, Envelope::forwarded(origin, payload.len()))
+        self.publish_enveloped(channel, Envelope::forwarded(origin, payload.len()), payload)
     }
 
     fn forward_all(&mut self, batch: &[crate::OwnedMessage]) -> Result<usize, PublishError> {

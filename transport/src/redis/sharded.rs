@@ -50,8 +50,9 @@ impl RedisTransport {
         Ok(transport)
     }
 
-    /// Publishes `payload` under an envelope sealed by the caller (who numbers the messages
-    /// across nodes, so a channel that moves keeps its numbering).
+    /// Publishes `payload` under an envelope made by the caller: a forwarded message's own, or
+    /// one sealed by a Redis Cluster transport (which numbers the messages across nodes, so a
+    /// channel that moves keeps its numbering).
     pub(crate) fn publish_enveloped(
         &mut self,
         channel: &str,
