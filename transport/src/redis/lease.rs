@@ -179,6 +179,11 @@ impl RedisTransport {
         Ok(())
     }
 
+    /// Whether it holds a lease.
+    pub(crate) fn has_leases(&self) -> bool {
+        !self.leases.is_empty()
+    }
+
     /// The keys of the leases it holds (a Redis Cluster's transport moves them between
     /// nodes).
     pub(crate) fn lease_keys(&self) -> Vec<String> {

@@ -78,6 +78,9 @@ impl RedisTransport {
     /// Channels the node unsubscribed this transport from unasked (their slot moved, or the
     /// node is a primary no more), once; they are no longer renewed on reconnect.
     pub(crate) fn take_dropped_by_server(&mut self) -> Vec<String> {
+        if self.dropped_by_server.is_empty() {
+            return Vec::new();
+        }
         let dropped = std::mem::take(&mut self.dropped_by_server);
         self.subscriptions
             .retain(|(_, name)| !dropped.iter().any(|d| d == name));

@@ -56,7 +56,7 @@ impl RedisClusterTransport {
         let mut i = 0;
         while i < self.links.len() {
             let link = &self.links[i];
-            if link.is_connected() || link.has_subscriptions() || !link.lease_keys().is_empty() {
+            if link.is_connected() || link.has_subscriptions() || link.has_leases() {
                 i += 1;
                 continue;
             }
@@ -140,6 +140,9 @@ impl RedisClusterTransport {
     /// slot move), where it is renewed from then on.
     pub(super) fn move_leases(&mut self) {
         for from in 0..self.links.len() {
+            if !self.links[from].has_leases() {
+                continue;
+            }
             for key in self.links[from].lease_keys() {
                 let primary = self.slots.primary_of(&key).to_owned();
                 if self.links[from].addr() == primary {
