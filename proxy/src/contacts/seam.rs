@@ -82,9 +82,15 @@ impl SeamImpulses {
         for (frame, _) in frames {
             for report in &frame.impulses {
                 events.emit(ClusterEvent::SeamImpulseReceived);
-                if simulated_here(sim, report.other) && config.within_bound(report.impulse) {
+                if !config.within_bound(report.impulse) {
+                    events.emit(ClusterEvent::SeamImpulseDropped);
+                } else if simulated_here(sim, report.other) {
                     received.push(*report);
                 } else {
+                    // About a body handed on since: nothing to give it here, but the other
+                    // world saw the contact, so this world's half of it is no contact the
+                    // other missed (passing it on would apply the contact twice).
+                    self.settlement.seen(report);
                     events.emit(ClusterEvent::SeamImpulseDropped);
                 }
             }

@@ -112,6 +112,13 @@ impl Settlement {
         }
     }
 
+    /// Notes that the other world saw `report`'s pair at its step, without settling it (its
+    /// body here was handed on since).
+    pub(crate) fn seen(&mut self, report: &SeamImpulseReport) {
+        let latest = self.reported.entry((report.other, report.own)).or_default();
+        *latest = (*latest).max(report.tick);
+    }
+
     /// Matches the reports `received` with this world's impulses and settles the pairs that
     /// have both halves; halves older than `wait` ticks at `now` are given up
     /// ([`HALF_WAITS_TICKS`] free-running, 0 in lock-step).
@@ -125,8 +132,7 @@ impl Settlement {
             // The report's `other` is this world's body; its `own` the other world's.
             self.theirs
                 .insert((report.tick, report.other, report.own), report.impulse);
-            let latest = self.reported.entry((report.other, report.own)).or_default();
-            *latest = (*latest).max(report.tick);
+            self.seen(&report);
         }
         let mut out = Settled::default();
         let both: Vec<Key> = self
@@ -258,6 +264,23 @@ mod tests {
         assert!(out.impulses.is_empty());
         assert_eq!(out.unmatched, 1);
         assert_eq!(out.unanswered, vec![(10, id(1), id(2), [1.0, 0.0, 0.0])]);
+    }
+
+    #[test]
+    fn a_report_about_a_body_handed_on_since_still_says_the_contact_was_seen() {
+        // This world's half of step 7; the other world's half names a body this world has
+        // handed on since, so it is only noted as seen: nothing settled, nothing passed on.
+        let mut here = Settlement::default();
+        let (tick, impulses) = mine(7, [0.0, 380.0, 0.0]);
+        here.record(tick, &impulses);
+        here.seen(&theirs(7, [0.0, -380.0, 0.0]));
+        let out = here.settle([], 7, 0);
+        assert!(out.impulses.is_empty());
+        assert!(out.unanswered.is_empty(), "{:?}", out.unanswered);
+        // Without the note, the same half is a contact the other world missed.
+        let mut alone = Settlement::default();
+        alone.record(tick, &impulses);
+        assert_eq!(alone.settle([], 7, 0).unanswered.len(), 1);
     }
 
     #[test]

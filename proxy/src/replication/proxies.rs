@@ -3,7 +3,7 @@
 //! moved by a [`CustomProxy`]. An entity its owner moves kinematically (a platform) is
 //! followed kinematically in the Fixed mode too, so what rests on it rides along.
 
-use seam_sim::wire::EntityState;
+use seam_sim::wire::{EntityId, EntityState, IdMap};
 use seam_sim::{BodyRole, ClusterSim, SimError};
 
 use super::dead_reckoning;
@@ -19,12 +19,42 @@ pub trait CustomProxy {
 #[derive(Default)]
 pub(crate) struct Proxies {
     custom: Option<Box<dyn CustomProxy>>,
+    /// Proxies whose owner handed them to a third cluster, with the tick of the state that
+    /// said so: the new owner's frames up to that tick are from before it took the entity, so
+    /// their silence about it is no departure (see [`Proxies::departed`]).
+    handed_on: IdMap<EntityId, u64>,
 }
 
 impl Proxies {
     /// Sets the hook that moves proxies in [`ProxyMode::Custom`].
     pub(crate) fn set_custom(&mut self, proxy: Box<dyn CustomProxy>) {
         self.custom = Some(proxy);
+    }
+
+    /// Notes that `state`, from its old owner, hands its entity to a third cluster.
+    pub(crate) fn handed_on(&mut self, state: &EntityState) {
+        self.handed_on.insert(state.id, state.tick);
+    }
+
+    /// Whether a whole frame of tick `frame_tick` from the entity's owner that does not list
+    /// `entity` means it has left. A frame from before the owner took the entity over (the
+    /// hand-off from its old owner came in the same receive, or a tick ahead of the taker's
+    /// first frame as owner) does not: at a corner, the entity would vanish for a tick or two
+    /// from every third world, with the contacts it makes there.
+    pub(crate) fn departed(&mut self, entity: EntityId, frame_tick: u64) -> bool {
+        match self.handed_on.get(&entity) {
+            Some(&handed) if frame_tick <= handed => false,
+            Some(_) => {
+                self.handed_on.swap_remove(&entity);
+                true
+            }
+            None => true,
+        }
+    }
+
+    /// Forgets what was noted of `entity` (its owner has listed it, or it left this world).
+    pub(crate) fn forget(&mut self, entity: EntityId) {
+        self.handed_on.swap_remove(&entity);
     }
 
     /// Brings the proxy of `state.id` to the replicated `state`.

@@ -99,7 +99,7 @@ impl Reconcile<'_> {
         // destroyed): nothing else is modelled. A delta frame without its keyframe lists only
         // what changed, so it says nothing of the others.
         if frame.is_whole() {
-            self.despawn_departed(from, &listed);
+            self.despawn_departed(from, frame.tick, &listed);
         }
     }
 
@@ -271,6 +271,7 @@ impl Reconcile<'_> {
         if state.cluster_id == self.config.cluster_id {
             // Handed to this cluster: the proxy becomes the body, in place, with the final pose
             // and velocity the old owner sent.
+            self.proxies.forget(state.id);
             self.sim
                 .set_role(state.id, owner_role(state))
                 .map_err(|_| Refused)?;
@@ -283,8 +284,12 @@ impl Reconcile<'_> {
             self.sim
                 .set_authority(state.id, state.cluster_id, state.epoch)
                 .map_err(|_| Refused)?;
+            self.proxies.handed_on(state);
+        } else {
+            self.proxies.forget(state.id);
         }
         if !self.visible(state) {
+            self.proxies.forget(state.id);
             self.sim.despawn(state.id).map_err(|_| Refused)?;
             self.events
                 .emit(ClusterEvent::ProxyDespawned { entity: state.id });
@@ -296,15 +301,20 @@ impl Reconcile<'_> {
             .map_err(|_| Refused)
     }
 
-    /// Despawns the proxies of `from` its whole frame did not list (and that are not in a
-    /// hand-off from this cluster).
-    fn despawn_departed(&mut self, from: ClusterId, listed: &IdMap<EntityId, ()>) {
-        let departed: Vec<EntityId> = self
+    /// Despawns the proxies of `from` its whole frame of `tick` did not list (and that are not
+    /// in a hand-off from this cluster, nor handed to `from` after that tick).
+    fn despawn_departed(&mut self, from: ClusterId, tick: u64, listed: &IdMap<EntityId, ()>) {
+        let unlisted: Vec<EntityId> = self
             .sim
             .entities()
             .filter(|(id, info)| info.owner == from && !listed.contains_key(id))
             .filter(|(id, _)| !self.handoffs.is_in_transit(*id))
             .map(|(id, _)| id)
+            .collect();
+        let proxies = &mut *self.proxies;
+        let departed: Vec<EntityId> = unlisted
+            .into_iter()
+            .filter(|&id| proxies.departed(id, tick))
             .collect();
         for entity in departed {
             if self.sim.despawn(entity).is_ok() {
