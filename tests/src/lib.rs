@@ -16,6 +16,8 @@
 //! - `tests/access.rs` — a pod's shared memory and files are its user's only.
 //! - `tests/acceptance.rs` — the three layers end to end on every transport.
 //! - `tests/contacts.rs` — contacts across the seam against one world.
+//! - `tests/corner_contacts.rs` — one block at a corner of four clusters hit three ways, against
+//!   one world's insertion-order floor and for momentum.
 //! - `tests/bodies.rs` — catalog shapes, materials, groups and sensors across the seam.
 //! - `tests/keyframes.rs` — delta frames against full frames, with frames dropped.
 //! - `tests/seams.rs` — every bundled scene split with default settings against one world.
