@@ -39,6 +39,7 @@ fn scenes() -> Vec<Scene> {
         "platform",
         "terrain",
         "hull-pile",
+        "ramp",
     ] {
         assert!(
             scenes.iter().any(|s| s.name == name),

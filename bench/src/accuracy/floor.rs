@@ -143,8 +143,12 @@ pub(super) fn final_errors(
 
 /// How far a split run may be from one world, against its noise floor `floor`: position RMS at
 /// most max(1.5 × the floor's, 1 cm), the largest error at most max(1.5 × the floor's, 5 cm),
-/// the onset no earlier than 0.8 × the floor's (never, where the floor never departs). Returns
-/// the figures of `split` that miss, in words; none when it is at the floor.
+/// the onset no earlier than 0.8 × the floor's (never, where the floor never departs), and the
+/// largest hand-off jump at most max(1.5 × the floor's largest one-tick departure of a tracked
+/// body, 1 cm) in position and max(1.5 × that, 0.05 m/s) in velocity (a flip is a tick on which
+/// a body changes worlds; the floor's run has none, so its ordinary ticks are what chaos gives a
+/// body tracked as closely). Returns the figures of `split` that miss, in words; none when it is
+/// at the floor.
 pub fn beyond_floor(split: &Accuracy, floor: &Accuracy) -> Vec<String> {
     let mut misses = Vec::new();
     let rms = (1.5 * floor.position_rms_m).max(0.01);
@@ -165,5 +169,58 @@ pub fn beyond_floor(split: &Accuracy, floor: &Accuracy) -> Vec<String> {
         (Some(at), None) => misses.push(format!("onset tick {at}, the floor's never")),
         _ => {}
     }
+    let jump_m = (1.5 * floor.step_jump_position_m).max(0.01);
+    if split.handoff_jump_position_m > jump_m {
+        misses.push(format!(
+            "hand-off jump {:.4} m > {jump_m:.4} m",
+            split.handoff_jump_position_m
+        ));
+    }
+    let jump_mps = (1.5 * floor.step_jump_velocity_mps).max(0.05);
+    if split.handoff_jump_velocity_mps > jump_mps {
+        misses.push(format!(
+            "hand-off jump {:.3} m/s > {jump_mps:.3} m/s",
+            split.handoff_jump_velocity_mps
+        ));
+    }
     misses
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A hand-off jump is judged beside the floor's largest one-tick departure of a tracked
+    /// body, never under 1 cm and 0.05 m/s.
+    #[test]
+    fn a_hand_off_jump_is_judged_beside_the_floors_one_tick_departure() {
+        let calm = Accuracy::default();
+        let jumped = Accuracy {
+            handoff_jump_position_m: 0.02,
+            handoff_jump_velocity_mps: 0.3,
+            ..Accuracy::default()
+        };
+        let misses = beyond_floor(&jumped, &calm);
+        assert_eq!(misses.len(), 2, "{misses:?}");
+        assert!(
+            misses[0].starts_with("hand-off jump 0.0200 m"),
+            "{misses:?}"
+        );
+        assert!(
+            misses[1].starts_with("hand-off jump 0.300 m/s"),
+            "{misses:?}"
+        );
+        let small = Accuracy {
+            handoff_jump_position_m: 0.009,
+            handoff_jump_velocity_mps: 0.04,
+            ..Accuracy::default()
+        };
+        assert!(beyond_floor(&small, &calm).is_empty());
+        let chaotic = Accuracy {
+            step_jump_position_m: 0.05,
+            step_jump_velocity_mps: 1.0,
+            ..Accuracy::default()
+        };
+        assert!(beyond_floor(&jumped, &chaotic).is_empty());
+    }
 }

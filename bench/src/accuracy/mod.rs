@@ -450,8 +450,7 @@ fn trial_text(r: &TrialResult) -> String {
          precision {}, mean tick offset {:.2}\n\
          \x20 momentum error       max {:.4} kg·m/s, mean {:.5} of Σm|v| (the single world's own \
          drift: {:.5})\n\
-         \x20 hand-offs            {} ({} of bodies already off track, not judged; {} to a cluster with \
-         no proxy of the body): largest jump {:.5} m, {:.5} m/s{}\n\
+         {}\
          \x20 ownership            {} body-ticks with two owners, {} lost, {} in transit \
          (hand-off read next tick); {} bodies escaped (fell through or flew off where the \
          single world's did not)\n\n\
@@ -506,16 +505,7 @@ fn trial_text(r: &TrialResult) -> String {
         a.momentum_error_max,
         a.momentum_error_rel,
         a.momentum_drift_rel,
-        a.handoffs,
-        a.handoffs_untracked,
-        a.handoffs_without_proxy,
-        a.handoff_jump_position_m,
-        a.handoff_jump_velocity_mps,
-        a.worst_handoff
-            .as_ref()
-            .map_or(String::new(), |(name, tick)| format!(
-                " ({name} at tick {tick})"
-            )),
+        handoff_text(r),
         a.duplicate_owner_ticks,
         a.missing_entity_ticks,
         a.in_transit_ticks,
@@ -534,6 +524,31 @@ fn trial_text(r: &TrialResult) -> String {
         c.op_whole_p50_us,
         c.op_whole_p99_us,
         c.op_transport_p50_us,
+    )
+}
+
+/// The hand-offs line of [`trial_text`].
+fn handoff_text(r: &TrialResult) -> String {
+    let a = &r.accuracy;
+    format!(
+        "\x20 hand-offs            {} ({} of bodies already off track or near one that is, not \
+         judged; {} to a cluster with no proxy of the body): largest jump {:.5} m, {:.5} m/s{}; \
+         a tracked body's largest one-tick departure without a flip {:.5} m, {:.5} m/s (the \
+         floor's: {:.5} m, {:.5} m/s)\n",
+        a.handoffs,
+        a.handoffs_untracked,
+        a.handoffs_without_proxy,
+        a.handoff_jump_position_m,
+        a.handoff_jump_velocity_mps,
+        a.worst_handoff
+            .as_ref()
+            .map_or(String::new(), |(name, tick)| format!(
+                " ({name} at tick {tick})"
+            )),
+        a.step_jump_position_m,
+        a.step_jump_velocity_mps,
+        r.floor.step_jump_position_m,
+        r.floor.step_jump_velocity_mps,
     )
 }
 
@@ -561,7 +576,7 @@ fn floor_verdict(r: &TrialResult) -> String {
     let misses = beyond_floor(&r.accuracy, &r.floor);
     if misses.is_empty() {
         "at the floor (RMS ≤ max(1.5 × floor, 1 cm), max ≤ max(1.5 × floor, 5 cm), onset ≥ \
-         0.8 × floor's)"
+         0.8 × floor's, hand-off jump ≤ max(1.5 × floor's one-tick departure, 1 cm and 0.05 m/s))"
             .to_owned()
     } else {
         format!("beyond it: {}", misses.join("; "))

@@ -79,7 +79,8 @@ impl AgainstOneWorld {
         doc.line(format!(
             "  against it       {}",
             if self.beyond_floor.is_empty() {
-                "at the floor (RMS ≤ max(1.5 × floor, 1 cm), max ≤ max(1.5 × floor, 5 cm))"
+                "at the floor (RMS ≤ max(1.5 × floor, 1 cm), max ≤ max(1.5 × floor, 5 cm), \
+                 hand-off jump ≤ max(1.5 × floor's one-tick departure, 1 cm and 0.05 m/s))"
                     .to_owned()
             } else {
                 format!("beyond it: {}", self.beyond_floor.join("; "))

@@ -238,8 +238,8 @@ fn every_bundled_scene_loads() {
         "platform",
         "elevator",
         "dominoes",
+        "ramp",
         "open/corner",
-        "open/ramp",
     ] {
         load(&scene_file(&format!("{name}.toml"))).unwrap_or_else(|e| panic!("{e}"));
     }
