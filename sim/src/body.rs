@@ -154,6 +154,12 @@ pub(crate) fn apply_state(
     let target = pose_of(state.position, state.rotation);
     let linvel = Vector::from_array(state.linvel);
     let angvel = Vector::from_array(state.angvel);
+    if !owned && matches!(entry.info.role, BodyRole::Dynamic | BodyRole::Fixed) {
+        if set_proxy(world, entry, target, (linvel, angvel), dt) {
+            stale.push((entry.body, entry.collider));
+        }
+        return;
+    }
     let body = &mut world.bodies[entry.body];
     match entry.info.role {
         BodyRole::Dynamic | BodyRole::Fixed => {
@@ -188,6 +194,119 @@ pub(crate) fn apply_state(
         }
     }
     stale.push((entry.body, entry.collider));
+}
+
+/// The speed, m/s, under which Rapier counts a body as still for sleep: a step's drift
+/// (`|v| + |ω|·extent` over the step) under twice its normalised linear threshold, scaled by
+/// the world's length unit (`RigidBodyActivation::update_energy`). Negative for a body that
+/// never sleeps, so that any speed stirs it.
+fn calm_speed(body: &RigidBody, length_unit: f32) -> f32 {
+    2.0 * body.activation().normalized_linear_threshold * length_unit
+}
+
+/// How far a proxy at rest may stand from its entity's replicated pose before it is set there,
+/// m (the distance plus the turn times the body's extent): ten times the noise floor's
+/// perturbation, far below any error the comparison counts.
+pub(crate) const REST_TOLERANCE_M: f32 = 1.0e-5;
+
+/// How far `target` is from where `body` stands, m: the distance plus the turn times the body's
+/// extent (as Rapier measures a step's drift for sleep).
+fn pose_gap(body: &RigidBody, target: &Pose) -> f32 {
+    let current = body.position();
+    let turn = (target.rotation * current.rotation.inverse())
+        .to_axis_angle()
+        .1;
+    let turn = turn.min(std::f32::consts::TAU - turn);
+    (target.translation - current.translation).length() + turn * body.mass_properties().max_extent()
+}
+
+/// Whether a replicated state moves a proxy's body as Rapier counts motion for sleep: faster
+/// than [`calm_speed`], spinning past π/2 rad/s, or further from where this world has the body
+/// than a calm step moves it.
+fn stirs(
+    body: &RigidBody,
+    target: &Pose,
+    (linvel, angvel): (Vector, Vector),
+    dt: f32,
+    length_unit: f32,
+) -> bool {
+    let calm = calm_speed(body, length_unit);
+    let spin = angvel.length();
+    spin >= std::f32::consts::FRAC_PI_2
+        || linvel.length() + spin * body.mass_properties().max_extent() >= calm
+        || pose_gap(body, target) >= calm * dt
+}
+
+/// Whether a body near `collider` (a pair in Rapier's contact graph) is asleep.
+fn near_sleeper(world: &PhysicsWorld, collider: ColliderHandle) -> bool {
+    world.narrow_phase.contact_pairs_with(collider).any(|pair| {
+        let other = if pair.collider1 == collider {
+            pair.collider2
+        } else {
+            pair.collider1
+        };
+        world
+            .colliders
+            .get(other)
+            .and_then(|c| c.parent())
+            .and_then(|b| world.bodies.get(b))
+            .is_some_and(|b| b.is_dynamic() && b.is_sleeping())
+    })
+}
+
+/// Sets a proxy (Fixed, or dynamic while coupled) to a replicated state. Its velocity is set,
+/// and wakes it only where the state stirs it ([`stirs`]). Its pose is set exactly, except
+/// where it is within [`REST_TOLERANCE_M`] of where this world has it and setting it would
+/// keep bodies awake that one world lets sleep: Rapier strongly wakes every body near a
+/// collider moved from outside a step, however little it moved. So a coupled proxy of an
+/// entity at rest, which this world simulates itself, is left where it is, and so is any
+/// proxy near a body asleep. One world lets a cradle of touching balls fall asleep half a
+/// second after it comes to rest, and a strike on the sleeping row moves only the ball struck
+/// in its first step; proxies set to every frame of entities at rest (moved 30 nm) kept the
+/// row awake in both clusters' worlds, and a coupled proxy of the striker set to each frame on
+/// its way woke the row a tick before it hit, so the split's strike went down the whole row a
+/// tick early (`dominoes`: 2 cm off one world at tick 57, where a second single world departs
+/// at tick 76). Other proxies stand exactly where their owner has them, for what game code
+/// reads of them: leaving Fixed proxies of crates at rest within the tolerance moved an
+/// explosion's pushes computed from them, and `crossfire`, bit-identical to one world, ended
+/// 1.4 m off it. Whether the pose was set.
+fn set_proxy(
+    world: &mut PhysicsWorld,
+    entry: &Entry,
+    target: Pose,
+    motion: (Vector, Vector),
+    dt: f32,
+) -> bool {
+    let length_unit = world.integration_parameters.length_unit;
+    let body = &world.bodies[entry.body];
+    let wake = stirs(body, &target, motion, dt, length_unit);
+    let leave = pose_gap(body, &target) <= REST_TOLERANCE_M
+        && ((body.is_dynamic() && !wake) || near_sleeper(world, entry.collider));
+    let body = &mut world.bodies[entry.body];
+    body.set_linvel(motion.0, wake);
+    body.set_angvel(motion.1, wake);
+    if leave {
+        return false;
+    }
+    body.set_position(target, wake);
+    true
+}
+
+/// Gives a body an impulse that settles a contact this world's step has solved already: the
+/// change of velocity wakes the body only where it is faster than [`calm_speed`], as Rapier's
+/// own contact impulses never wake a body. Settling a resting contact across the seam every
+/// step otherwise keeps both sides' bodies awake for good.
+pub(crate) fn apply_settling(world: &mut PhysicsWorld, entry: &Entry, impulse: [f32; 3]) {
+    let length_unit = world.integration_parameters.length_unit;
+    let body = &mut world.bodies[entry.body];
+    let impulse = Vector::from_array(impulse);
+    let change = if body.mass() > 0.0 {
+        impulse.length() / body.mass()
+    } else {
+        0.0
+    };
+    let wake = change >= calm_speed(body, length_unit);
+    body.apply_impulse(impulse, wake);
 }
 
 /// Applies a (validated) write `missed` steps after the step one world would have applied it

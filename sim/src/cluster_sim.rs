@@ -192,6 +192,14 @@ impl ClusterSim {
         Some(state)
     }
 
+    /// Whether the entity's body is asleep in this world: Rapier puts a body to sleep once it
+    /// and everything it touches have been still for half a second, and steps it no more until
+    /// something wakes it. `None` for an entity not here.
+    pub fn is_asleep(&self, id: EntityId) -> Option<bool> {
+        let entry = self.entities.get(&id)?;
+        Some(self.world.bodies[entry.body].is_sleeping())
+    }
+
     /// The current states of the entities this cluster owns, with their roles, in entity
     /// order: [`ClusterSim::state`] of each, in one pass.
     pub fn owned_states(&self) -> impl Iterator<Item = (EntityState, BodyRole)> + '_ {
@@ -282,6 +290,23 @@ impl ClusterSim {
             self.config.dt,
             missed,
         );
+        Ok(())
+    }
+
+    /// Gives `target` an impulse that settles a contact across the seam this world's step has
+    /// solved already (seam-proxy's settling): as [`Self::apply_op`] with an impulse, except
+    /// that the body is woken only where the change of velocity is more than Rapier counts as
+    /// still for sleep (see `body::apply_settling`). Validated first.
+    pub fn apply_settling(&mut self, target: EntityId, impulse: [f32; 3]) -> Result<(), SimError> {
+        validate::op(
+            &PhysicsOp::Impulse { target, impulse },
+            self.config.max_op_magnitude,
+        )?;
+        let entry = self
+            .entities
+            .get(&target)
+            .ok_or(SimError::UnknownEntity(target))?;
+        body::apply_settling(&mut self.world, entry, impulse);
         Ok(())
     }
 

@@ -613,3 +613,56 @@ fn game_code_spawns_through_the_handle() {
     let moved = sim.state(shot.id).expect("there").position[0];
     assert!(moved > 5.1, "stepped with the world: x = {moved}");
 }
+
+/// A body resting against a proxy of an entity at rest falls asleep as it would in one world,
+/// though the proxy is set to every frame its owner sends, each a few nanometres off (Rapier
+/// wakes everything near a collider moved from outside a step, however little: a Newton's
+/// cradle across a seam never slept, and a strike went down its row a step early); a state
+/// that moves still sets the proxy exactly where its owner has it.
+#[test]
+fn bodies_against_a_proxy_at_rest_fall_asleep() {
+    let mut sim = sim();
+    let floor = cuboid(1, ClusterId::SCENERY, [0.0, -0.5, 0.0], [10.0, 0.5, 10.0]);
+    sim.spawn(&floor, BodyRole::Fixed).expect("floor");
+    let own = ball(2, HERE, [0.0, 0.25, 0.0], 0.25);
+    sim.spawn(&own, BodyRole::Dynamic).expect("own ball");
+    let proxy = ball(3, THERE, [0.5, 0.25, 0.0], 0.25);
+    sim.spawn(&proxy, BodyRole::Fixed).expect("proxy");
+    let own_id = EntityId::from_u128(2);
+    let proxy_id = EntityId::from_u128(3);
+    for tick in 0..90u32 {
+        // The owner's frames of its ball at rest: where it settles here too (the two worlds
+        // solve it alike), give or take 30 nm.
+        let jitter = if tick % 2 == 0 { 3.0e-8 } else { -3.0e-8 };
+        let mut frame = proxy;
+        frame.position = sim.state(proxy_id).expect("proxy").position;
+        frame.position[1] += jitter;
+        frame.tick = sim.tick();
+        sim.apply_state(&frame).expect("frame");
+        sim.couple_proxies(BodyRole::Fixed);
+        sim.step();
+    }
+    assert_eq!(
+        sim.is_asleep(own_id),
+        Some(true),
+        "the ball beside the proxy sleeps"
+    );
+    // A frame that moves the proxy sets it exactly, and wakes what it touches.
+    let mut moving = proxy;
+    moving.position = [0.6, 0.25, 0.0];
+    moving.linvel = [1.0, 0.0, 0.0];
+    moving.tick = sim.tick();
+    sim.apply_state(&moving).expect("moving frame");
+    let state = sim.state(proxy_id).expect("proxy");
+    assert_eq!(
+        state.position, moving.position,
+        "a moving proxy stands where its owner has it"
+    );
+    sim.couple_proxies(BodyRole::Fixed);
+    sim.step();
+    assert_eq!(
+        sim.is_asleep(own_id),
+        Some(false),
+        "a moved neighbour wakes the ball"
+    );
+}

@@ -40,6 +40,8 @@ fn scenes() -> Vec<Scene> {
         "terrain",
         "hull-pile",
         "ramp",
+        "dominoes",
+        "elevator",
     ] {
         assert!(
             scenes.iter().any(|s| s.name == name),
@@ -55,14 +57,7 @@ fn trial(scene: &Scene, settings: TrialSettings) -> Accuracy {
         .accuracy
 }
 
-/// The bundled scenes not at their noise floor at default settings, and the one figure each
-/// misses (`accuracy::beyond_floor`'s words): `dominoes`' Newton's cradle, whose chain of
-/// contacts is solved on each side, moves its far ball a tick early (onset 57 against the
-/// floor's 76; its RMS and max are at the floor).
-const BEYOND_FLOOR: &[(&str, &str)] = &[("dominoes", "onset")];
-
-/// Default settings on every bundled scene: at its noise floor (but for `BEYOND_FLOOR`, by the
-/// figure named), no body escapes, none has two owners or none, none but a shot is handed to
+/// Default settings on every bundled scene: at its noise floor, no body escapes, none has two owners or none, none but a shot is handed to
 /// a cluster with no proxy of it, every
 /// judged hand-off lands within 1 cm and 0.05 m/s of the single world's motion, the position
 /// error is at most 1.25 times that of proxies for everything (so interest management costs
@@ -76,13 +71,7 @@ fn bundled_scenes_hold_at_default_settings() {
         let r = run_trial(&scene, &TrialSettings::default(), None)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         let misses = beyond_floor(&r.accuracy, &r.floor);
-        match BEYOND_FLOOR.iter().find(|(scene, _)| *scene == name) {
-            None => assert!(misses.is_empty(), "{name}: beyond its floor: {misses:?}"),
-            Some((_, figure)) => assert!(
-                misses.len() == 1 && misses[0].starts_with(figure),
-                "{name}: beyond its floor by its {figure} alone: {misses:?}"
-            ),
-        }
+        assert!(misses.is_empty(), "{name}: beyond its floor: {misses:?}");
         let default = r.accuracy;
         let everything = trial(
             &scene,
@@ -291,7 +280,8 @@ fn a_platform_carries_its_riders_across_the_seams() {
 /// authority, which gives one owner to bodies in sustained contact where three or more
 /// clusters' bodies meet, the split is at its noise floor in position (RMS, max, onset) and
 /// hits as many shots as a second single world does; with the spatial rule alone the stack
-/// is solved in four worlds at once and ends far beyond it (13.8 m RMS against 3.9).
+/// is solved in four worlds at once, and a crate escapes (5.1 m RMS against 3.9; 13.8 m
+/// while proxies at rest kept the stack from ever falling asleep).
 #[test]
 fn four_clusters_at_a_corner_are_at_their_floor_with_groups() {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/open/corner.toml");
@@ -320,7 +310,8 @@ fn four_clusters_at_a_corner_are_at_their_floor_with_groups() {
     };
     let alone = run_trial(&scene, &spatial, None).expect("corner, spatial");
     assert!(
-        !beyond_floor(&alone.accuracy, &alone.floor).is_empty(),
+        !beyond_floor(&alone.accuracy, &alone.floor).is_empty()
+            || alone.accuracy.escaped_bodies > 0,
         "the spatial rule alone: {:?}",
         alone.accuracy
     );

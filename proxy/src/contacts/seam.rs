@@ -131,11 +131,7 @@ impl SeamImpulses {
             events.emit(ClusterEvent::SeamImpulseRouted { to: owner });
         }
         for (target, impulse) in settled.impulses {
-            if simulated_here(sim, target)
-                && sim
-                    .apply_op(&PhysicsOp::Impulse { target, impulse })
-                    .is_ok()
-            {
+            if simulated_here(sim, target) && sim.apply_settling(target, impulse).is_ok() {
                 events.emit(ClusterEvent::SeamImpulseSettled { entity: target });
             }
         }
