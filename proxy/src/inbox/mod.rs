@@ -35,6 +35,7 @@ pub(crate) struct Inbox {
 }
 
 /// The frames one tick uses, in neighbour order.
+#[derive(Default)]
 pub(crate) struct TickFrames {
     pub(crate) replication: Vec<HeldReplication>,
     /// With the time each was received at.
