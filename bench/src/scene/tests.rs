@@ -240,6 +240,7 @@ fn every_bundled_scene_loads() {
         "dominoes",
         "ramp",
         "open/corner",
+        "open/four-corners",
     ] {
         load(&scene_file(&format!("{name}.toml"))).unwrap_or_else(|e| panic!("{e}"));
     }
