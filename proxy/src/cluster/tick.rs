@@ -112,13 +112,9 @@ impl Cluster {
         self.finish_tick()
     }
 
-    /// Lock-step, the neighbours' frames of the world as it starts (tick 0, published as each
-    /// began it), taken in before the first step: this world then holds their bodies'
-    /// proxies at its first step, as one world holds every body. Without them a body resting
-    /// on a neighbour's fell freely through that step (a stack's crate 1.6 mm), and two crates
-    /// of two clusters, stacked, fell alike and ended exactly touching, where Rapier's contact
-    /// between two convex hulls can come out sideways and hold nothing up for ticks
-    /// (docs/accuracy.md, "Stacks at a corner").
+    /// Lock-step, the neighbours' frames of tick 0 (sent as each began), taken in before the
+    /// first step, so this world holds their proxies from it as one world holds every body
+    /// (without them a body resting on a neighbour's fell a step: docs/accuracy.md).
     fn take_start(&mut self, timeout: Duration) -> Result<(), ClusterError> {
         self.wait_for_tick(0, timeout)?;
         let frames = self.inbox.take_tick(0, &self.config.neighbours);
