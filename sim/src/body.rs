@@ -237,8 +237,10 @@ fn stirs(
         || pose_gap(body, target) >= calm * dt
 }
 
-/// Whether a body near `collider` (a pair in Rapier's contact graph) is asleep.
-fn near_sleeper(world: &PhysicsWorld, collider: ColliderHandle) -> bool {
+/// Whether a body near `collider` (a pair in Rapier's contact graph) is asleep, or, with
+/// `calm`, still enough for Rapier to be counting down to its sleep.
+fn near_rest(world: &PhysicsWorld, collider: ColliderHandle, calm: bool) -> bool {
+    let length_unit = world.integration_parameters.length_unit;
     world.narrow_phase.contact_pairs_with(collider).any(|pair| {
         let other = if pair.collider1 == collider {
             pair.collider2
@@ -250,26 +252,28 @@ fn near_sleeper(world: &PhysicsWorld, collider: ColliderHandle) -> bool {
             .get(other)
             .and_then(|c| c.parent())
             .and_then(|b| world.bodies.get(b))
-            .is_some_and(|b| b.is_dynamic() && b.is_sleeping())
+            .is_some_and(|b| {
+                let still = || {
+                    let drift = b.linvel().length()
+                        + b.angvel().length() * b.mass_properties().max_extent();
+                    drift < calm_speed(b, length_unit)
+                };
+                b.is_dynamic() && (b.is_sleeping() || (calm && still()))
+            })
     })
 }
 
 /// Sets a proxy (Fixed, or dynamic while coupled) to a replicated state. Its velocity is set,
 /// and wakes it only where the state stirs it ([`stirs`]). Its pose is set exactly, except
 /// where it is within [`REST_TOLERANCE_M`] of where this world has it and setting it would
-/// keep bodies awake that one world lets sleep: Rapier strongly wakes every body near a
-/// collider moved from outside a step, however little it moved. So a coupled proxy of an
-/// entity at rest, which this world simulates itself, is left where it is, and so is any
-/// proxy near a body asleep. One world lets a cradle of touching balls fall asleep half a
-/// second after it comes to rest, and a strike on the sleeping row moves only the ball struck
-/// in its first step; proxies set to every frame of entities at rest (moved 30 nm) kept the
-/// row awake in both clusters' worlds, and a coupled proxy of the striker set to each frame on
-/// its way woke the row a tick before it hit, so the split's strike went down the whole row a
-/// tick early (`dominoes`: 2 cm off one world at tick 57, where a second single world departs
-/// at tick 76). Other proxies stand exactly where their owner has them, for what game code
-/// reads of them: leaving Fixed proxies of crates at rest within the tolerance moved an
-/// explosion's pushes computed from them, and `crossfire`, bit-identical to one world, ended
-/// 1.4 m off it. Whether the pose was set.
+/// keep bodies awake that one world lets sleep (Rapier strongly wakes every body whose box
+/// overlaps a collider moved from outside a step, however little it moved): a coupled proxy,
+/// which this world simulates itself, is left where its step put it when its entity is at
+/// rest or a body near it is still enough to be falling asleep, and any proxy near a body
+/// asleep. Every other proxy stands exactly where its owner has it, for what game code reads.
+/// docs/accuracy.md ("Sleep") has the measurements: `dominoes` struck a tick early, a stack
+/// on `open/four-corners` struck awake, `crossfire`'s explosion moved 1.4 m, `grid`'s pile-up
+/// solved 10 µm apart. Whether the pose was set.
 fn set_proxy(
     world: &mut PhysicsWorld,
     entry: &Entry,
@@ -281,7 +285,11 @@ fn set_proxy(
     let body = &world.bodies[entry.body];
     let wake = stirs(body, &target, motion, dt, length_unit);
     let leave = pose_gap(body, &target) <= REST_TOLERANCE_M
-        && ((body.is_dynamic() && !wake) || near_sleeper(world, entry.collider));
+        && if body.is_dynamic() {
+            !wake || near_rest(world, entry.collider, true)
+        } else {
+            near_rest(world, entry.collider, false)
+        };
     let body = &mut world.bodies[entry.body];
     body.set_linvel(motion.0, wake);
     body.set_angvel(motion.1, wake);

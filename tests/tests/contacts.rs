@@ -379,3 +379,75 @@ fn a_crate_on_a_neighbours_crate_stands_from_the_first_step() {
         "the crate stood on its neighbour's in the first step: {upper_v} m/s"
     );
 }
+
+/// A body at rest beside a neighbour's body that moves without touching it falls asleep when
+/// one world's does. Rapier strongly wakes every body near a collider moved from outside a
+/// step, so a coupled proxy set to each frame of a ball spinning in place kept the crate
+/// beside it awake for good; one world lets the crate sleep half a second after it rests. A
+/// struck stack answers the strike differently asleep and awake (`open/four-corners`: 3.3 mm
+/// RMS against a floor of 0.7 mm, now 0.4 mm), so the split's stack must sleep when one
+/// world's does.
+#[test]
+fn a_crate_beside_a_neighbours_spinning_ball_falls_asleep_as_in_one_world() {
+    let (west, east) = (ClusterId::random(), ClusterId::random());
+    let url = format!("local?prefix=seam_asleep_beside_{}_", std::process::id());
+    let (crate_id, ball) = (EntityId::random(), EntityId::random());
+    let cube = Shape::Cuboid {
+        half_extents: [0.5; 3],
+    };
+    // Diagonal off the crate's vertical edge: their boxes overlap (a pair in Rapier's contact
+    // graph), their shapes stay 4.7 cm apart (within the coupling's reach).
+    let crate_state =
+        EntityState::new(crate_id, west, BodySpec::new(cube).density(20.0)).at([0.0, 0.5, 0.0]);
+    let ball_state = EntityState::new(ball, east, BodySpec::new(Shape::ball(0.25)))
+        .at([0.71, 0.25, 0.71])
+        .spin([0.0, 3.0, 0.0]);
+    let floor = |me| {
+        EntityState::new(
+            EntityId::random(),
+            me,
+            BodySpec::new(Shape::Cuboid {
+                half_extents: [10.0, 0.5, 10.0],
+            }),
+        )
+        .at([0.0, -0.5, 0.0])
+    };
+    let new_cluster = |me, neighbours| {
+        let mut cluster = Cluster::new(ClusterConfig::new(me, neighbours, &url)).expect("cluster");
+        cluster.spawn_scenery(&floor(me)).expect("floor");
+        cluster
+    };
+    // One world: the crate sleeps once it has rested half a second.
+    let mut one = new_cluster(ClusterId::random(), vec![]);
+    for state in [crate_state, ball_state] {
+        let state = EntityState {
+            cluster_id: one.id(),
+            ..state
+        };
+        one.spawn_owned(&state, BodyRole::Dynamic)
+            .expect("one world");
+    }
+    let mut clusters = vec![new_cluster(west, vec![east]), new_cluster(east, vec![west])];
+    clusters[0]
+        .spawn_owned(&crate_state, BodyRole::Dynamic)
+        .expect("west's crate");
+    clusters[1]
+        .spawn_owned(&ball_state, BodyRole::Dynamic)
+        .expect("east's ball");
+    for _ in 0..90 {
+        lockstep_round(std::slice::from_mut(&mut one), TIMEOUT, |_, _, _| ()).expect("one");
+        lockstep_round(&mut clusters, TIMEOUT, |_, _, _| ()).expect("split");
+    }
+    assert_eq!(
+        one.sim().is_asleep(crate_id),
+        Some(true),
+        "one world's crate"
+    );
+    assert_eq!(one.sim().is_asleep(ball), Some(false), "the ball spins on");
+    assert!(clusters[0].sim().contains(ball), "west holds east's ball");
+    assert_eq!(
+        clusters[0].sim().is_asleep(crate_id),
+        Some(true),
+        "west's crate sleeps as one world's does"
+    );
+}
