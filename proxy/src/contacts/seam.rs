@@ -130,6 +130,8 @@ impl SeamImpulses {
             unseen.push((owner, op));
             events.emit(ClusterEvent::SeamImpulseRouted { to: owner });
         }
+        // Each pair's correction, to the bodies of it this cluster simulates: its own, and the
+        // other world's if that was handed here since the step (nobody else gives it then).
         for (target, impulse) in settled.impulses {
             if simulated_here(sim, target) && sim.apply_settling(target, impulse).is_ok() {
                 events.emit(ClusterEvent::SeamImpulseSettled { entity: target });

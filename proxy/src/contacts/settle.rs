@@ -92,7 +92,10 @@ fn settled(mine: [f32; 3], theirs: [f32; 3]) -> Option<[f32; 3]> {
 /// What one settling pass did.
 #[derive(Debug, Default)]
 pub(crate) struct Settled {
-    /// Impulses to give this cluster's bodies, summed by body.
+    /// Impulses for both bodies of each pair settled, summed by body. The caller gives them
+    /// to the bodies it simulates: this cluster's, and the other world's body only if it was
+    /// handed here since the step (its old owner, simulating it no more, drops the report
+    /// naming it, so its half of the correction is this cluster's to give).
     pub(crate) impulses: BTreeMap<EntityId, [f32; 3]>,
     /// Pairs whose two impulses disagree: left as each world solved them.
     pub(crate) disagreed: u64,
@@ -148,8 +151,10 @@ impl Settlement {
             };
             match settled(mine, theirs) {
                 Some(impulse) => {
-                    let slot = out.impulses.entry(key.1).or_insert([0.0; 3]);
-                    *slot = add(*slot, impulse);
+                    for body in [key.1, key.2] {
+                        let slot = out.impulses.entry(body).or_insert([0.0; 3]);
+                        *slot = add(*slot, impulse);
+                    }
                 }
                 None => out.disagreed += 1,
             }
@@ -218,6 +223,17 @@ mod tests {
         // a: 4 − 0.5 = 3.5 = (J_a − J_b) / 2.
         assert_eq!(out.impulses[&id(1)], [-0.5, -0.0, -0.0]);
         assert!(here.own.is_empty() && here.theirs.is_empty());
+    }
+
+    #[test]
+    fn both_bodies_of_a_settled_pair_are_given_their_share() {
+        // The other world's body gets the same correction: it is given only by a cluster that
+        // simulates it, which is this one once it is handed here after the step.
+        let mut here = Settlement::default();
+        let (tick, impulses) = mine(7, [4.0, 0.0, 0.0]);
+        here.record(tick, &impulses);
+        let out = here.settle([theirs(7, [-3.0, 0.0, 0.0])], 7, 0);
+        assert_eq!(out.impulses[&id(1)], out.impulses[&id(2)]);
     }
 
     #[test]
