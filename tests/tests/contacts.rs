@@ -451,3 +451,58 @@ fn a_crate_beside_a_neighbours_spinning_ball_falls_asleep_as_in_one_world() {
         "west's crate sleeps as one world's does"
     );
 }
+
+/// Free-running too: a pod sends its frames of tick 0 before its first step and waits (at most
+/// `neighbour_wait_ticks`) for its neighbours', so a crate resting on a neighbour's stands
+/// from the first step. West begins 50 ms after east (the wait is a second here, so a busy
+/// machine does not make it run out): before, east stepped at once without west's crate and
+/// its own fell freely through the step.
+#[test]
+fn a_free_running_crate_on_a_neighbours_crate_stands_from_the_first_step() {
+    let (west, east) = (ClusterId::random(), ClusterId::random());
+    let url = format!("local?prefix=seam_first_free_{}_", std::process::id());
+    let (lower, upper) = (EntityId::random(), EntityId::random());
+    let both = std::sync::Barrier::new(2);
+    let pod = |me, other, id, y: f32, late: bool| {
+        let mut config = ClusterConfig::new(me, vec![other], &url);
+        config.neighbour_wait_ticks = 60.0;
+        let mut cluster = Cluster::new(config).expect("cluster");
+        let floor = EntityState::new(
+            EntityId::random(),
+            me,
+            BodySpec::new(Shape::Cuboid {
+                half_extents: [10.0, 0.5, 10.0],
+            }),
+        )
+        .at([0.0, -0.5, 0.0]);
+        cluster.spawn_scenery(&floor).expect("floor");
+        let cube = Shape::Cuboid {
+            half_extents: [0.5; 3],
+        };
+        let state = EntityState::new(id, me, BodySpec::new(cube).density(20.0)).at([0.0, y, 0.0]);
+        cluster
+            .spawn_owned(&state, BodyRole::Dynamic)
+            .expect("crate");
+        both.wait();
+        if late {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        cluster.tick(|_, _| ()).expect("first tick");
+        cluster
+    };
+    let (_, east_pod) = std::thread::scope(|s| {
+        let w = s.spawn(|| pod(west, east, lower, 0.5, true).sim().contains(upper));
+        let e = s.spawn(|| {
+            let c = pod(east, west, upper, 1.5, false);
+            let v = c.sim().state(upper).expect("east's crate").linvel[1];
+            (c.sim().contains(lower), v)
+        });
+        (w.join().expect("west"), e.join().expect("east"))
+    });
+    let (holds, upper_v) = east_pod;
+    assert!(holds, "east holds west's crate after its first step");
+    assert!(
+        upper_v > -0.05,
+        "the crate stood on its neighbour's in the first step: {upper_v} m/s"
+    );
+}

@@ -196,6 +196,11 @@ fn with_frames_dropped_no_proxy_is_staler_than_the_keyframe_interval() {
     // Each body's position after each of west's ticks.
     let mut history: HashMap<EntityId, Vec<(u64, [f32; 3])>> = HashMap::new();
     let mut first_seen: HashMap<EntityId, u64> = HashMap::new();
+    // Where each body starts: a pod's first tick sends its frames of tick 0 first.
+    for (id, state) in ids.iter().zip(proxies(&clusters[0], &ids)) {
+        let state = state.expect("west owns it");
+        history.entry(*id).or_default().push((0, state.position));
+    }
     for round in 0..60u64 {
         if round == 6 {
             // A body at rest that appears just before the lost keyframe: in it, not in the

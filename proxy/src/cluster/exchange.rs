@@ -158,7 +158,7 @@ impl Cluster {
     }
 
     /// Sleeps on the transport up to `timeout` for one message, and takes it in.
-    fn receive_one(&mut self, timeout: Duration) -> Result<(), ClusterError> {
+    pub(super) fn receive_one(&mut self, timeout: Duration) -> Result<(), ClusterError> {
         if let Some(message) = self.transport.receive_timeout(timeout)? {
             let received_ns = monotonic_ns();
             let frame = decode_frame(message.channel, message.payload);

@@ -8,6 +8,7 @@
 //!   catalog shapes, roles, owners (`transfer_authority`), names.
 //! - `tick` — the ways to run a tick (free-running, lock-step in one call or two halves) and
 //!   `run_until_exchange` and `finish_tick`, the list of phases.
+//! - `start` — the first step: the world as it starts sent, the neighbours' taken in before it.
 //! - `exchange` — the exchange before the step: this tick's ops and own writes out, the
 //!   neighbours' waited for and applied.
 //! - `receive` — frames taken off the transport into the inbox (and `wait` between ticks).
@@ -44,6 +45,7 @@ mod exchange;
 mod phases;
 mod publish;
 mod receive;
+mod start;
 mod tick;
 mod warnings;
 

@@ -103,6 +103,7 @@ impl Cluster {
     /// its frames count from now on (the predecessor's are refused as stale).
     fn restarted(&mut self, neighbour: seam_sim::wire::ClusterId, incarnation: u64) {
         self.inbox.forget(neighbour);
+        self.keys.forget(neighbour);
         tracing::info!(
             cluster = %self.config.label(self.config.cluster_id),
             neighbour = %self.config.label(neighbour),

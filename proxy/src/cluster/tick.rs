@@ -45,9 +45,12 @@ impl Cluster {
         self.phases.start();
         self.note_host_time(now_ns);
         self.drain()?;
+        if self.sim.tick() == 0 {
+            self.start_free()?;
+        }
         self.wait_step_free()?;
         self.check_liveness();
-        let frames = self.inbox.take_all();
+        let frames = self.inbox.take_all(self.sim.tick());
         self.run_until_exchange(frames, user)?;
         self.wait_exchange_free()?;
         self.finish_tick()
@@ -112,18 +115,12 @@ impl Cluster {
         self.finish_tick()
     }
 
-    /// Lock-step, the neighbours' frames of tick 0 (sent as each began), taken in before the
-    /// first step, so this world holds their proxies from it as one world holds every body
-    /// (without them a body resting on a neighbour's fell a step: docs/accuracy.md).
-    fn take_start(&mut self, timeout: Duration) -> Result<(), ClusterError> {
-        self.wait_for_tick(0, timeout)?;
-        let frames = self.inbox.take_tick(0, &self.config.neighbours);
-        self.reconcile(frames.replication);
-        Ok(())
-    }
-
     /// Waits (up to `timeout`) until every neighbour's frames tagged `tick` are in.
-    fn wait_for_tick(&mut self, tick: u64, timeout: Duration) -> Result<(), ClusterError> {
+    pub(super) fn wait_for_tick(
+        &mut self,
+        tick: u64,
+        timeout: Duration,
+    ) -> Result<(), ClusterError> {
         let replication = tick.is_multiple_of(self.config.replication_interval);
         let deadline = Instant::now() + timeout;
         self.drain()?;
@@ -232,7 +229,7 @@ impl Cluster {
 
     /// Brings the world in line with the neighbours' frames (the hand-offs held for this tick
     /// first); each is kept as its sender's last picture (with a world map, to adopt from).
-    fn reconcile(&mut self, frames: Vec<HeldReplication>) {
+    pub(super) fn reconcile(&mut self, frames: Vec<HeldReplication>) {
         let (tick, config) = (self.sim.tick(), &self.config);
         self.interest.expire(tick);
         let mut reconcile = Reconcile {

@@ -56,32 +56,35 @@ impl Inbox {
         }
     }
 
-    /// Keeps a replication frame in place of any other of the same sender (free-running): of
-    /// the two, the newer stays, carrying the hand-offs of the older (see [`Self::take_all`]).
-    /// However long a backlog (a pod resuming after a stall reads everything Redis kept for
-    /// it), the inbox holds one replication frame per sender. Returns whether it was kept (a
-    /// frame of a tick already kept is not).
+    /// Keeps a replication frame in place of all but the newest other of the same sender
+    /// (free-running): the two newest stay, the older carrying the hand-offs of every frame
+    /// before it (see [`Self::take_all`]), so a tick can take its neighbour's frame of its own
+    /// tick while the next one, already in, waits for the next tick. However long a backlog (a
+    /// pod resuming after a stall reads everything Redis kept for it), the inbox holds two
+    /// replication frames per sender. Returns whether it was kept (a frame of a tick already
+    /// kept is not).
     pub(crate) fn add_replication_newest(&mut self, frame: HeldReplication) -> bool {
         if self.replication.contains_key(&(frame.tick, frame.from)) {
             return false;
         }
         let from = frame.from;
-        let kept: Vec<(u64, ClusterId)> = self
+        self.replication.insert((frame.tick, from), frame);
+        // Keys sort by tick first: this sender's frames, oldest first.
+        let mut kept: Vec<(u64, ClusterId)> = self
             .replication
             .keys()
             .filter(|(_, sender)| *sender == from)
             .copied()
             .collect();
-        let mut newest = frame;
-        for key in kept {
-            if let Some(mut other) = self.replication.remove(&key) {
-                if other.tick > newest.tick {
-                    std::mem::swap(&mut other, &mut newest);
-                }
-                newest.carry_handoffs_of(other);
+        while kept.len() > 2 {
+            let oldest = kept.remove(0);
+            let Some(old) = self.replication.remove(&oldest) else {
+                continue;
+            };
+            if let Some(next) = self.replication.get_mut(&kept[0]) {
+                next.carry_handoffs_of(old);
             }
         }
-        self.replication.insert((newest.tick, from), newest);
         true
     }
 
@@ -175,14 +178,22 @@ impl Inbox {
         taken
     }
 
-    /// Takes everything (free-running): every events frame, and the newest replication frame of
-    /// each sender. A hand-off in an older frame the newest one no longer lists rides along in
-    /// the newest (the old owner stops listing an entity right after handing it over, so
-    /// skipping that frame would lose the entity).
-    pub(crate) fn take_all(&mut self) -> TickFrames {
+    /// Takes everything (free-running) for the tick `tick`: every events frame, and the newest
+    /// replication frame of each sender, except one of the next tick (`tick + 1`, a neighbour
+    /// a step ahead), which waits for that tick while an older one is there to take: a proxy
+    /// stands where its entity is at this tick, as in lock-step, not a step on. A hand-off in
+    /// an older frame the newest one no longer lists rides along in the newest (the old owner
+    /// stops listing an entity right after handing it over, so skipping that frame would lose
+    /// the entity).
+    pub(crate) fn take_all(&mut self, tick: u64) -> TickFrames {
         let mut newest: BTreeMap<ClusterId, HeldReplication> = BTreeMap::new();
+        let mut held = BTreeMap::new();
         // Keys sort by tick first, so each sender's frames come oldest first.
-        for ((_, from), frame) in std::mem::take(&mut self.replication) {
+        for ((t, from), frame) in std::mem::take(&mut self.replication) {
+            if t == tick + 1 && newest.contains_key(&from) {
+                held.insert((t, from), frame);
+                continue;
+            }
             let Some(older) = newest.insert(from, frame) else {
                 continue;
             };
@@ -190,6 +201,7 @@ impl Inbox {
                 newer.carry_handoffs_of(older);
             }
         }
+        self.replication = held;
         TickFrames {
             replication: newest.into_values().collect(),
             events: std::mem::take(&mut self.events).into_values().collect(),
@@ -224,7 +236,7 @@ mod tests {
     }
 
     #[test]
-    fn free_running_keeps_one_frame_per_sender_with_its_handoffs() {
+    fn free_running_keeps_two_frames_per_sender_with_their_handoffs() {
         let (a, b) = (ClusterId::random(), ClusterId::random());
         let (kept, handed) = (EntityId::random(), EntityId::random());
         let mut inbox = Inbox::default();
@@ -237,17 +249,37 @@ mod tests {
             assert!(inbox.add_replication_newest(held(a, tick, vec![state(kept, a, tick as f32)])));
             assert_eq!(
                 inbox.replication.len(),
-                1,
-                "one frame held, however long the backlog"
+                2,
+                "two frames held, however long the backlog"
             );
         }
         assert!(!inbox.add_replication_newest(held(a, 99, Vec::new())));
-        let frames = inbox.take_all();
+        let frames = inbox.take_all(100);
         let newest = &frames.replication[0];
         assert_eq!(newest.tick, 99);
         let newest = states(newest);
         assert_eq!(newest[0].position[0], 99.0);
         assert_eq!(newest[1].id, handed, "the hand-off rode along");
+    }
+
+    #[test]
+    fn a_frame_of_the_next_tick_waits_for_it() {
+        let a = ClusterId::random();
+        let kept = EntityId::random();
+        let mut inbox = Inbox::default();
+        inbox.add_replication_newest(held(a, 7, vec![state(kept, a, 1.0)]));
+        inbox.add_replication_newest(held(a, 8, vec![state(kept, a, 2.0)]));
+        let frames = inbox.take_all(7);
+        assert_eq!(frames.replication.len(), 1);
+        assert_eq!(frames.replication[0].tick, 7, "this tick's frame");
+        let frames = inbox.take_all(8);
+        assert_eq!(
+            frames.replication[0].tick, 8,
+            "the next one at the next tick"
+        );
+        // Alone, a frame a step ahead is taken: better than none.
+        inbox.add_replication_newest(held(a, 10, vec![state(kept, a, 3.0)]));
+        assert_eq!(inbox.take_all(9).replication[0].tick, 10);
     }
 
     #[test]
@@ -257,7 +289,7 @@ mod tests {
         let mut inbox = Inbox::default();
         inbox.add_replication(held(a, 7, vec![state(kept, a, 1.0), state(handed, b, 2.0)]));
         inbox.add_replication(held(a, 8, vec![state(kept, a, 1.5)]));
-        let frames = inbox.take_all();
+        let frames = inbox.take_all(100);
         assert_eq!(frames.replication.len(), 1);
         let newest = &frames.replication[0];
         assert_eq!(newest.tick, 8);

@@ -13,6 +13,13 @@ pub(crate) struct Keys {
 }
 
 impl Keys {
+    /// Forgets `neighbour`'s keyframe: a new pod of it counts its ticks from its own start, so
+    /// its first keyframe is older than its predecessor's last and must not be taken for
+    /// stale (its delta frames were refused until its ticks passed its predecessor's).
+    pub(crate) fn forget(&mut self, neighbour: ClusterId) {
+        self.keys.swap_remove(&neighbour);
+    }
+
     /// Keeps `frame` if it is a keyframe newer than the one held, or gives a delta frame the
     /// keyframe it names. Returns `false` for a delta frame whose keyframe is not held.
     pub(crate) fn read(&mut self, frame: &mut HeldReplication) -> bool {
