@@ -231,10 +231,15 @@ fn stirs(
     length_unit: f32,
 ) -> bool {
     let calm = calm_speed(body, length_unit);
-    let spin = angvel.length();
-    spin >= std::f32::consts::FRAC_PI_2
-        || linvel.length() + spin * body.mass_properties().max_extent() >= calm
+    angvel.length() >= std::f32::consts::FRAC_PI_2
+        || drift_speed(body, linvel, angvel) >= calm
         || pose_gap(body, target) >= calm * dt
+}
+
+/// How fast `body` moving at `linvel` and `angvel` drifts as Rapier measures it for sleep:
+/// `|v| + |ω|` times its extent, m/s.
+fn drift_speed(body: &RigidBody, linvel: Vector, angvel: Vector) -> f32 {
+    linvel.length() + angvel.length() * body.mass_properties().max_extent()
 }
 
 /// Whether a body near `collider` (a pair in Rapier's contact graph) is asleep, or, with
@@ -253,11 +258,7 @@ fn near_rest(world: &PhysicsWorld, collider: ColliderHandle, calm: bool) -> bool
             .and_then(|c| c.parent())
             .and_then(|b| world.bodies.get(b))
             .is_some_and(|b| {
-                let still = || {
-                    let drift = b.linvel().length()
-                        + b.angvel().length() * b.mass_properties().max_extent();
-                    drift < calm_speed(b, length_unit)
-                };
+                let still = || drift_speed(b, b.linvel(), b.angvel()) < calm_speed(b, length_unit);
                 b.is_dynamic() && (b.is_sleeping() || (calm && still()))
             })
     })

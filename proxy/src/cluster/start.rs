@@ -36,10 +36,10 @@ impl Cluster {
             self.drain()?;
             // Heard, not in the inbox: a neighbour that began first may have sent its next
             // frames already, and the inbox keeps a neighbour's newest.
+            let neighbours = &self.neighbours;
             let heard = |n: &ClusterId| {
-                let heard = &self.neighbours;
-                heard.has_heard(*n, FrameKind::Replication, 0)
-                    && heard.has_heard(*n, FrameKind::Events, 0)
+                neighbours.has_heard(*n, FrameKind::Replication, 0)
+                    && neighbours.has_heard(*n, FrameKind::Events, 0)
             };
             let now = Instant::now();
             if now >= deadline || self.config.neighbours.iter().all(heard) {
