@@ -317,7 +317,7 @@ fn draw<DB: DrawingBackend>(
                     green.stroke_width(2),
                 ))
                 .map_err(failed)?
-                .label("noise floor (one world, perturbed)")
+                .label("noise floor (farthest of 3 perturbed worlds)")
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x - 10, y), (x + 10, y)], green.stroke_width(2))
                 });

@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use seam_sim::wire::{EntityId, IdMap};
 
-use super::{Accuracy, Basis, Cost, FloorRun, TrialResult, TrialSettings};
+use super::{Accuracy, Basis, Cost, Floor, FloorRun, TrialResult, TrialSettings};
 use crate::error::{BenchResult, Context};
 use crate::node::{NodeReport, ProxyModeArg};
 use crate::pod::{Part, Pod, PodSettings};
@@ -190,7 +190,8 @@ pub fn run_free_trial_on_hosts(
         },
         ticks,
         accuracy,
-        floor,
+        floor: floor.farthest,
+        floor_worlds: floor.worlds,
         cost: Cost {
             tick_p50_us: p50s.get(p50s.len() / 2).copied().unwrap_or(0) as f64 / 1e3,
             tick_sum_p50_us: p50s.iter().sum::<u64>() as f64 / 1e3,
@@ -233,7 +234,7 @@ pub(super) fn judge_pods(
     run_id: &str,
     ticks: u64,
     nodes: &[NodeReport],
-) -> BenchResult<(Accuracy, Accuracy)> {
+) -> BenchResult<(Accuracy, Floor)> {
     let (reference, floor, truth_at) = run_reference(scene, settings, run_id, ticks, nodes)?;
     let mut accuracy = Accuracy::default();
     let truth: IdMap<EntityId, [f32; 3]> = reference.simulated_positions().into_iter().collect();

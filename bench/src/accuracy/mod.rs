@@ -29,7 +29,9 @@ use crate::node::AuthorityArgs;
 use crate::pod::{OpStages, Part, Pod, PodSettings};
 use crate::scene::{Event, Scene};
 pub use compare::{Accuracy, Comparison, ONSET_M, TRACKED_M, TRACKED_MPS};
-pub use floor::{Basis, FloorRun, PERTURBATION_M, beyond_floor};
+pub use floor::{
+    Basis, FLOOR_WORLDS, Floor, FloorRun, FloorWorld, PERTURBATION_M, beyond_floor, floor_words,
+};
 pub use free::{FreeRunning, run_free_trial, run_free_trial_on_hosts};
 pub use one_world::{AgainstOneWorld, JudgedRun, judged_document};
 
@@ -190,10 +192,13 @@ pub struct TrialResult {
     pub ticks: u64,
     /// Accuracy against the reference.
     pub accuracy: Accuracy,
-    /// The noise floor: a second single world, bodies inserted in reverse order and every
-    /// dynamic one moved [`PERTURBATION_M`], judged against the reference with the same
-    /// metrics (see [`FloorRun`]). An error at the floor is the scene's chaos, not the split's.
+    /// The noise floor: the farthest figures of [`FLOOR_WORLDS`] single worlds, bodies
+    /// inserted in reverse order and every dynamic one moved [`PERTURBATION_M`], judged
+    /// against the reference with the same metrics (see [`FloorRun`]). An error at the floor
+    /// is the scene's chaos, not the split's.
     pub floor: Accuracy,
+    /// Each of those worlds' position error and onset.
+    pub floor_worlds: Vec<FloorWorld>,
     /// Cost.
     pub cost: Cost,
 }
@@ -353,7 +358,7 @@ pub fn run_recorded_trial(
     if let Some(recorder) = recorder {
         recorder.finish().map_err(recording)?;
     }
-
+    let floor = floor.finish(&reference);
     Ok(TrialResult {
         scene: scene.name.clone(),
         transport: "lockstep".to_owned(),
@@ -361,7 +366,8 @@ pub fn run_recorded_trial(
         settings: *settings,
         ticks: scene.ticks,
         accuracy: without_proxy(comparison.finish(|id| reference.entity_name(id)), &pods),
-        floor: floor.finish(&reference),
+        floor: floor.farthest,
+        floor_worlds: floor.worlds,
         cost: lockstep_cost(
             &pods,
             &tick_times,
@@ -556,13 +562,12 @@ fn handoff_text(r: &TrialResult) -> String {
 /// at the floor.
 fn floor_text(r: &TrialResult) -> String {
     format!(
-        "\x20 noise floor          RMS {:.4} m, max {:.4} m: one world again, bodies inserted in \
-         reverse order and each dynamic one moved {} µm\n\
+        "\x20 noise floor          RMS {:.4} m, max {:.4} m: {}\n\
          \x20 onset                {} (the floor's {}): first tick a body is {} cm off one world\n\
          \x20 against the floor    {}\n",
         r.floor.position_rms_m,
         r.floor.position_max_m,
-        PERTURBATION_M * 1e6,
+        floor_words(&r.floor_worlds),
         onset_text(r.accuracy.onset_tick, r.position_basis),
         onset_text(r.floor.onset_tick, "every tick"),
         ONSET_M * 100.0,

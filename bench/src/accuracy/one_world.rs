@@ -8,7 +8,7 @@
 
 use serde::Serialize;
 
-use super::{Accuracy, PERTURBATION_M, TrialSettings, beyond_floor};
+use super::{Accuracy, FloorWorld, TrialSettings, beyond_floor};
 use crate::document::Document;
 use crate::error::{BenchResult, Context};
 use crate::node::NodeReport;
@@ -20,8 +20,11 @@ pub struct AgainstOneWorld {
     /// The pods against one world.
     pub accuracy: Accuracy,
     /// One world again, bodies inserted in reverse order and each dynamic one moved
-    /// [`PERTURBATION_M`], against the first: the noise floor.
+    /// [`super::PERTURBATION_M`], against the first: the noise floor, the farthest figures of
+    /// [`super::FLOOR_WORLDS`] such worlds.
     pub floor: Accuracy,
+    /// Each of those worlds' position error.
+    pub floor_worlds: Vec<FloorWorld>,
     /// The figures that miss the floor's targets ([`beyond_floor`]); empty at the floor.
     pub beyond_floor: Vec<String>,
 }
@@ -47,9 +50,10 @@ impl AgainstOneWorld {
         let (accuracy, floor) =
             super::free::judge_pods(&scene, &settings, &plan.run_id, ticks, nodes)?;
         Ok(Self {
-            beyond_floor: beyond_floor(&accuracy, &floor),
+            beyond_floor: beyond_floor(&accuracy, &floor.farthest),
             accuracy,
-            floor,
+            floor: floor.farthest,
+            floor_worlds: floor.worlds,
         })
     }
 
@@ -70,11 +74,10 @@ impl AgainstOneWorld {
                 .map_or(String::new(), |(name, _)| format!(" (largest: {name})"))
         ));
         doc.line(format!(
-            "  noise floor      RMS {:.4} m, max {:.4} m: one world again, bodies inserted in \
-             reverse order and each dynamic one moved {} µm",
+            "  noise floor      RMS {:.4} m, max {:.4} m: {}",
             f.position_rms_m,
             f.position_max_m,
-            PERTURBATION_M * 1e6
+            super::floor_words(&self.floor_worlds)
         ));
         doc.line(format!(
             "  against it       {}",

@@ -73,10 +73,12 @@ pub struct PodSettings {
     pub rejoin: bool,
     /// Record every authority flip's states (see [`FlipRecord`]), for free-running accuracy.
     pub track_flips: bool,
-    /// The noise floor's second single world: every dynamic body moved this far from where
-    /// the scene puts it, m, each in a direction of its own drawn from its id (see
-    /// [`perturbed`]), and everything spawned in reverse order. 0 for every other pod.
+    /// A noise floor's single world: every dynamic body moved this far from where the scene
+    /// puts it, m, each in a direction of its own (see [`perturbed`]), and everything spawned
+    /// in reverse order. 0 for every other pod.
     pub perturbation_m: f32,
+    /// Which of the floor's worlds this is: each draws its bodies' directions afresh.
+    pub perturbation_world: u32,
 }
 
 impl PodSettings {
@@ -97,6 +99,7 @@ impl PodSettings {
             rejoin: false,
             track_flips: false,
             perturbation_m: 0.0,
+            perturbation_world: 0,
         }
     }
 }
@@ -248,13 +251,16 @@ fn apply_settings(config: &mut ClusterConfig, scene: &Scene, settings: &PodSetti
     config.neighbour_timeout_ticks = settings.neighbour_timeout_ticks;
 }
 
-/// `position` moved `by` metres in a direction of `id`'s own: three 16-bit fields of the id,
-/// centred, as a vector, normalised. The same id moves the same way in every run.
-pub fn perturbed(position: [f32; 3], id: EntityId, by: f32) -> [f32; 3] {
+/// `position` of the scene body `body` (its name, `#i` for a grid copy) moved `by` metres in a
+/// direction of its own in floor world `world`: three 16-bit fields of a hash of the scene,
+/// the body and the world, centred, as a vector, normalised. Drawn from names, not from ids
+/// (which come from the run's name), so a body moves the same way in every run of a scene:
+/// a free-running run and a lock-step trial of one scene stand beside the same floor.
+pub fn perturbed(position: [f32; 3], body: &str, world: u32, by: f32) -> [f32; 3] {
     if by == 0.0 {
         return position;
     }
-    let bits = id.as_u128();
+    let bits = EntityId::named(&format!("noise floor {world}"), body).as_u128();
     let d = [0, 16, 32].map(|shift| ((bits >> shift) & 0xffff) as f32 - 32767.5);
     let length = d
         .iter()
@@ -294,7 +300,13 @@ fn spawn_entities(
                 continue;
             }
             let at = if entity.role == scene::Role::Dynamic {
-                perturbed(at, id, settings.perturbation_m)
+                let body = format!("{}/{}#{index}", scene.name, entity.name);
+                perturbed(
+                    at,
+                    &body,
+                    settings.perturbation_world,
+                    settings.perturbation_m,
+                )
             } else {
                 at
             };

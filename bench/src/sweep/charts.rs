@@ -197,7 +197,7 @@ fn accuracy_vs_cost<DB: DrawingBackend>(
     });
     let title = match floor {
         Some(floor) if floor >= 0.01 => format!(
-            "{scene} (chaotic: one world perturbed at round-off ends {floor:.2} m RMS off): \
+            "{scene} (chaotic: one world perturbed at round-off ends up to {floor:.2} m RMS off): \
              accuracy against cost"
         ),
         _ => format!("{scene}: accuracy against cost (one point per setting)"),
@@ -333,7 +333,7 @@ impl Panel {
                     green.stroke_width(2),
                 ))
                 .map_err(failed)?
-                .label("noise floor (one world, perturbed)")
+                .label("noise floor (farthest of 3 perturbed worlds)")
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x - 10, y), (x + 10, y)], green.stroke_width(2))
                 });

@@ -47,8 +47,9 @@ pub(crate) enum Command {
     /// bodies that escaped (fell through or flew off where the single world's did not), and the
     /// split run's tick time (per cluster and summed, against the single world's), bytes per
     /// tick, proxies and op delay. Beside the error stands the noise floor: the single world
-    /// run again with its bodies inserted in reverse order and each dynamic one moved 1 µm,
-    /// judged the same way, and for both the onset (the first tick a body is 2 cm off); the
+    /// run again three times, each with its bodies inserted in reverse order and each dynamic
+    /// one moved 1 µm in a direction of its own, judged the same way, the farthest of the
+    /// three; and for split and floor the onset (the first tick a body is 2 cm off). The
     /// "against the floor" line says whether the split is within it. `--markdown` prints one
     /// table row per scene.
     Compare(compare::CompareArgs),

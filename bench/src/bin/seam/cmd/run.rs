@@ -48,10 +48,11 @@ pub(crate) struct RunArgs {
     #[arg(long)]
     stagger: bool,
     /// Do not judge the run against one world. By default, once the pods are done, the same
-    /// scene runs here for as many ticks as one world and again as its noise floor (bodies
-    /// inserted in reverse order, each dynamic one moved 1 µm), and the report says how far
-    /// the pods' bodies ended from it, against the floor, with projectile hits and hand-off
-    /// jumps. Skip it on a scene so large that two more worlds of it cost too long.
+    /// scene runs here for as many ticks as one world and three times again as its noise floor
+    /// (bodies inserted in reverse order, each dynamic one moved 1 µm in a direction of its
+    /// own; the farthest of the three), and the report says how far the pods' bodies ended
+    /// from it, against the floor, with projectile hits and hand-off jumps. Skip it on a
+    /// scene so large that four more worlds of it cost too long.
     #[arg(long)]
     no_judge: bool,
     #[command(flatten)]
