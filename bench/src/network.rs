@@ -163,13 +163,13 @@ pub fn write(trials: &[DelayTrial], out: &Path) -> BenchResult<Vec<PathBuf>> {
     let mut file =
         std::fs::File::create(&csv).map_err(|e| BenchError::io("write", csv.display(), e))?;
     let mut text = String::from(
-        "scene,delay_ms,hit_recall,hits_matched,hits_reference,position_rms_m,position_max_m,floor_position_rms_m,floor_position_max_m,floor_onset_tick,ops_routed,ops,op_delay_p50_ticks,op_delay_max_ticks,op_transport_p50_us,tick_p99_us,handoffs,handoffs_untracked,handoff_jump_position_m,handoff_jump_velocity_mps,simulated_as\n",
+        "scene,delay_ms,hit_recall,hits_matched,hits_reference,position_rms_m,position_max_m,floor_position_rms_m,floor_position_max_m,floor_onset_tick,ops_routed,ops,op_delay_p50_ticks,op_delay_max_ticks,op_transport_p50_us,tick_p99_us,handoffs,handoffs_untracked,handoff_jump_position_m,handoff_jump_velocity_mps,floor_step_jump_position_m,floor_step_jump_velocity_mps,at_floor,simulated_as\n",
     );
     for t in trials {
         let a = &t.result.accuracy;
         let c = &t.result.cost;
         text += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
             t.result.scene,
             t.delay_ms,
             a.hit_recall.map_or(String::new(), |r| r.to_string()),
@@ -193,6 +193,9 @@ pub fn write(trials: &[DelayTrial], out: &Path) -> BenchResult<Vec<PathBuf>> {
             a.handoffs_untracked,
             a.handoff_jump_position_m,
             a.handoff_jump_velocity_mps,
+            t.result.floor.step_jump_position_m,
+            t.result.floor.step_jump_velocity_mps,
+            crate::accuracy::beyond_floor(a, &t.result.floor).is_empty(),
             t.simulated_as
         );
     }

@@ -138,7 +138,7 @@ impl TrialSettings {
 }
 
 /// What it cost.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct Cost {
     /// Median tick time of the split clusters, µs (the median of their medians).
     pub tick_p50_us: f64,

@@ -45,6 +45,12 @@ pub(super) const COLUMNS: &[&str] = &[
     "handoffs_untracked",
     "handoff_jump_position_m",
     "handoff_jump_velocity_mps",
+    "step_jump_position_m",
+    "step_jump_velocity_mps",
+    "floor_step_jump_position_m",
+    "floor_step_jump_velocity_mps",
+    "floor_worlds",
+    "at_floor",
     "duplicate_owner_ticks",
     "missing_entity_ticks",
     "in_transit_ticks",
@@ -107,6 +113,14 @@ pub(super) fn row(r: &TrialResult) -> String {
         a.handoffs_untracked.to_string(),
         format!("{:.6}", a.handoff_jump_position_m),
         format!("{:.6}", a.handoff_jump_velocity_mps),
+        format!("{:.6}", a.step_jump_position_m),
+        format!("{:.6}", a.step_jump_velocity_mps),
+        format!("{:.6}", r.floor.step_jump_position_m),
+        format!("{:.6}", r.floor.step_jump_velocity_mps),
+        r.floor_worlds.len().to_string(),
+        crate::accuracy::beyond_floor(a, &r.floor)
+            .is_empty()
+            .to_string(),
         a.duplicate_owner_ticks.to_string(),
         a.missing_entity_ticks.to_string(),
         a.in_transit_ticks.to_string(),
@@ -140,4 +154,46 @@ pub(super) fn write(results: &[TrialResult], path: &Path) -> BenchResult<()> {
         text.push('\n');
     }
     std::fs::write(path, text).map_err(|e| BenchError::io("write", path.display(), e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accuracy::{Accuracy, Cost, TrialSettings};
+
+    fn trial(rms: f64, floor_rms: f64) -> TrialResult {
+        TrialResult {
+            scene: "s".to_owned(),
+            transport: "lockstep".to_owned(),
+            position_basis: "every tick",
+            settings: TrialSettings::default(),
+            ticks: 10,
+            accuracy: Accuracy {
+                position_rms_m: rms,
+                ..Accuracy::default()
+            },
+            floor: Accuracy {
+                position_rms_m: floor_rms,
+                ..Accuracy::default()
+            },
+            floor_worlds: vec![Default::default(); 3],
+            cost: Cost::default(),
+        }
+    }
+
+    /// Every row has a field per column, and says whether the trial is at its floor as the
+    /// text's verdict does.
+    #[test]
+    fn a_row_has_every_column_and_the_floors_verdict() {
+        let field = |r: &TrialResult, name: &str| {
+            let at = COLUMNS.iter().position(|c| *c == name).expect(name);
+            row(r).split(',').nth(at).map(str::to_owned)
+        };
+        let at = trial(0.02, 0.1);
+        assert_eq!(row(&at).split(',').count(), COLUMNS.len());
+        assert_eq!(field(&at, "at_floor").as_deref(), Some("true"));
+        assert_eq!(field(&at, "floor_worlds").as_deref(), Some("3"));
+        let beyond = trial(0.5, 0.1);
+        assert_eq!(field(&beyond, "at_floor").as_deref(), Some("false"));
+    }
 }
