@@ -194,8 +194,24 @@ impl RedisCluster {
 
     /// Moves `slot` from its primary to another (the steps `redis-cli --cluster reshard`
     /// takes for each slot: importing, migrating, then the new owner announced to both; no
-    /// keys to move, pub/sub keeps none). Returns the ports it moved from and to.
+    /// keys to move, pub/sub keeps none). Returns the ports it moved from and to. Right after
+    /// a failover or a restart the nodes' views of who owns a slot can disagree for a moment,
+    /// and the primary one node names answers that it is not the owner: the move is then
+    /// undone at the importing node and tried again, at most 20 times, 250 ms apart.
     pub fn move_slot(&self, slot: u16) -> BenchResult<(u16, u16)> {
+        let mut tries = 0;
+        loop {
+            match self.try_move_slot(slot) {
+                Err(e) if tries < 20 && e.to_string().contains("not the owner") => {
+                    tries += 1;
+                    std::thread::sleep(std::time::Duration::from_millis(250));
+                }
+                moved => return moved,
+            }
+        }
+    }
+
+    fn try_move_slot(&self, slot: u16) -> BenchResult<(u16, u16)> {
         let from = self.primary_of(slot)?;
         let to = self
             .nodes()
@@ -208,10 +224,13 @@ impl RedisCluster {
             to.port,
             &["cluster", "setslot", &slot, "importing", &from.id],
         )?;
-        cli(
+        if let Err(e) = cli(
             from.port,
             &["cluster", "setslot", &slot, "migrating", &to.id],
-        )?;
+        ) {
+            let _ = cli(to.port, &["cluster", "setslot", &slot, "stable"]);
+            return Err(e);
+        }
         for port in [to.port, from.port] {
             cli(port, &["cluster", "setslot", &slot, "node", &to.id])?;
         }
