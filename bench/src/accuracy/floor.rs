@@ -42,8 +42,9 @@ pub const PERTURBATION_M: f32 = 1.0e-6;
 
 /// How many perturbed single worlds a floor runs, each body moved in a direction drawn afresh
 /// for each. One is not enough: on a scene where a contact starts at round-off distance, the
-/// direction alone decides how far the world drifts (`four-corners`, five worlds: 0.0002 to
-/// 0.0226 m RMS, two never 2 cm off and three off at tick 2 to 4; `stacks` 0.036 to 0.167 m).
+/// direction alone decides how far the world drifts (`four-corners`, these three worlds:
+/// 0.0199, 0.0002 and 0.0226 m RMS, the second never 2 cm off, the others from tick 2;
+/// `stacks` 0.052, 0.133 and 0.036 m).
 pub const FLOOR_WORLDS: u32 = 3;
 
 /// What the floor's positions are taken over, as for the split run it stands beside.
