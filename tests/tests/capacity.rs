@@ -36,12 +36,19 @@ fn probe<'a>(report: &'a CapacityReport, row: &str, layers: u32) -> Option<&'a P
 
 #[test]
 fn capacity_finds_a_size_and_its_table_agrees() {
-    let report = measure(&["rapier", "seam:2"], 2);
+    let report = measure(&["rapier", "apart:2", "seam:2"], 2);
     assert_eq!(report.bodies_per_layer, 2_500);
-    assert_eq!(report.rows.len(), 2);
+    assert_eq!(report.rows.len(), 3);
     for probe in &report.probes {
-        let allowed = report.max_overrun * probe.ticks as f64;
-        assert_eq!(probe.holds, probe.overruns as f64 <= allowed, "{probe:?}");
+        // Every process holds the rate on its own: the worst one's share decides, and it is
+        // at least the share of all the processes' ticks together.
+        assert_eq!(
+            probe.holds,
+            probe.worst_overrun_share <= report.max_overrun,
+            "{probe:?}"
+        );
+        let overall = probe.overruns as f64 / probe.ticks as f64;
+        assert!(probe.worst_overrun_share >= overall - 1e-12, "{probe:?}");
         assert_eq!(
             probe.bodies,
             u64::from(probe.layers) * report.bodies_per_layer,
@@ -50,14 +57,15 @@ fn capacity_finds_a_size_and_its_table_agrees() {
         assert!(probe.wall_p50_ns > 0 && probe.cpu_p50_ns > 0, "{probe:?}");
         assert!(probe.wall_p99_ns >= probe.wall_p50_ns, "{probe:?}");
     }
-    for (row, pods) in report.rows.iter().zip([1, 2]) {
+    for (row, pods) in report.rows.iter().zip([1, 2, 2]) {
         assert!(row.layers >= 1, "{} held not even one layer", row.row);
         let largest = row.at_largest.as_ref().expect("its largest size, measured");
         assert!(largest.holds);
         assert_eq!(largest.layers, row.layers);
         assert_eq!(row.bodies, largest.bodies);
-        // Every pod's ticks are counted.
+        // Every pod's (and every world's, apart) ticks are counted.
         assert_eq!(largest.ticks, 60 * pods, "{}", row.row);
+        assert_eq!(largest.processes, pods, "{}", row.row);
         match probe(&report, &row.row, row.layers + 1) {
             Some(next) => assert!(!row.capped && !next.holds, "{next:?}"),
             None => assert!(row.capped && row.layers == 2, "{row:?}"),
@@ -97,10 +105,14 @@ fn capacity_finds_a_size_and_its_table_agrees() {
 #[test]
 fn rows_are_read_or_refused_with_the_choices() {
     assert_eq!(Row::parse("seam:4").expect("a row"), Row::Seam { pods: 4 });
-    for bad in ["seam:0", "seam:x", "rapid", ""] {
+    assert_eq!(
+        Row::parse("apart:2").expect("a row"),
+        Row::Apart { worlds: 2 }
+    );
+    for bad in ["seam:0", "seam:x", "apart:0", "apart:", "rapid", ""] {
         let error = Row::parse(bad).expect_err("refused");
         assert!(
-            error.contains("rapier, rapier-ed, parallel, parallel-ed or seam:N"),
+            error.contains("rapier, rapier-ed, parallel, parallel-ed, apart:N"),
             "{error}"
         );
     }

@@ -7,7 +7,7 @@
 //! turns on; built once, reused after (cargo rebuilds only what changed).
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 
 use seam_anchor::{BodySpec, Motion, ShapeSpec, Timings, WorldSpec};
 
@@ -156,32 +156,106 @@ pub(super) fn binary(build: Build) -> BenchResult<PathBuf> {
     Ok(kept)
 }
 
-/// Runs `binary` on `world` (written to `scratch`) for `ticks` at `rate`.
-pub(super) fn run(
+/// The scene cut into `parts` as seam's rows cut it (`Scene::split_into`), each part's owned
+/// bodies and all the scenery as a world of its own.
+pub(super) fn worlds_apart(scene: &Scene, parts: usize) -> BenchResult<Vec<WorldSpec>> {
+    let split = scene.split_into(parts)?;
+    split
+        .clusters
+        .iter()
+        .map(|cluster| {
+            let mut part = split.clone();
+            part.entities
+                .retain(|e| e.owner.as_ref().is_none_or(|owner| *owner == cluster.name));
+            world_of(&part)
+        })
+        .collect()
+}
+
+/// Runs `binary` on each of `worlds` (written to `scratch`) for `ticks` at `rate`, every world
+/// in a process of its own, all at once; each world's timings, in order.
+pub(super) fn run_side_by_side(
     binary: &Path,
-    world: &WorldSpec,
+    worlds: &[WorldSpec],
     scratch: &Path,
     ticks: u64,
     rate: f64,
-) -> BenchResult<Timings> {
-    let path = scratch.join("world.json");
-    let json = serde_json::to_vec(world)?;
-    std::fs::write(&path, json).map_err(|e| BenchError::io("write", path.display(), e))?;
-    let output = Command::new(binary)
-        .arg(&path)
-        .arg(ticks.to_string())
-        .arg(rate.to_string())
-        .output()
-        .map_err(|e| BenchError::io("run", binary.display(), e))?;
-    if !output.status.success() {
-        return Err(BenchError::process(
-            binary.display(),
-            format!(
-                "{}: {}",
-                output.status,
-                String::from_utf8_lossy(&output.stderr).trim()
-            ),
-        ));
+) -> BenchResult<Vec<Timings>> {
+    let mut children = Vec::new();
+    for (i, world) in worlds.iter().enumerate() {
+        let path = scratch.join(format!("world-{i}.json"));
+        let json = serde_json::to_vec(world)?;
+        std::fs::write(&path, json).map_err(|e| BenchError::io("write", path.display(), e))?;
+        let child = Command::new(binary)
+            .arg(&path)
+            .arg(ticks.to_string())
+            .arg(rate.to_string())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|e| BenchError::io("run", binary.display(), e))?;
+        children.push(child);
     }
-    Ok(serde_json::from_slice(&output.stdout)?)
+    // Every child is waited for, even after one failed, so none is left running.
+    let outputs: Vec<_> = children
+        .into_iter()
+        .map(std::process::Child::wait_with_output)
+        .collect();
+    outputs
+        .into_iter()
+        .map(|output| {
+            let output = output.map_err(|e| BenchError::io("wait for", binary.display(), e))?;
+            if !output.status.success() {
+                return Err(BenchError::process(
+                    binary.display(),
+                    format!(
+                        "{}: {}",
+                        output.status,
+                        String::from_utf8_lossy(&output.stderr).trim()
+                    ),
+                ));
+            }
+            Ok(serde_json::from_slice(&output.stdout)?)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use seam_anchor::Motion;
+
+    /// `grid` in two worlds apart: the western fields in one, the eastern in the other, every
+    /// ball once; a part's scenery would be in every world.
+    #[test]
+    fn grid_apart_in_halves() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/grid.toml");
+        let scene = crate::scene::load(&path).expect("grid");
+        let worlds = super::worlds_apart(&scene, 2).expect("two worlds");
+        assert_eq!(worlds.len(), 2);
+        for (world, west) in worlds.iter().zip([true, false]) {
+            assert_eq!(world.bodies.len(), 1_250);
+            assert!(
+                world
+                    .bodies
+                    .iter()
+                    .all(|b| (b.position[0] < 0.0) == west && b.motion == Motion::Dynamic)
+            );
+        }
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/capacity/piles.toml");
+        let piles = crate::scene::load(&path).expect("piles");
+        let fixed = |w: &seam_anchor::WorldSpec| {
+            w.bodies
+                .iter()
+                .filter(|b| b.motion == Motion::Fixed)
+                .count()
+        };
+        let whole = super::world_of(&piles).expect("one world");
+        let apart = super::worlds_apart(&piles, 2).expect("two worlds");
+        assert!(fixed(&whole) > 0);
+        assert!(apart.iter().all(|w| fixed(w) == fixed(&whole)));
+        let moving = |w: &seam_anchor::WorldSpec| w.bodies.len() - fixed(w);
+        assert_eq!(apart.iter().map(moving).sum::<usize>(), moving(&whole));
+    }
 }

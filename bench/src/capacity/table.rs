@@ -47,7 +47,7 @@ pub fn document(report: &CapacityReport) -> Document {
     let mut doc = Document::new();
     doc.line(format!(
         "seam capacity: {} at {} Hz on {} cores, {} ticks a probe; a size holds with at most \
-         {:.1} % of its ticks over {:.1} ms; {} bodies a layer",
+         {:.1} % of each pod's (each world's) ticks over {:.1} ms; {} bodies a layer; scripted events left out",
         report.scene,
         report.rate,
         report.cores,

@@ -92,11 +92,15 @@ pub(crate) enum Command {
     /// The largest size of a scene that holds the tick rate: plain Rapier against seam's pods.
     ///
     /// For each row — plain Rapier on one thread (`rapier`, `rapier-ed`), Rapier's `parallel`
-    /// feature on every core (`parallel`, `parallel-ed`), seam as N pods on shared memory
+    /// feature on every core (`parallel`, `parallel-ed`), N plain worlds side by side, each one
+    /// part of the scene cut as seam:N cuts it with nothing crossing between them (`apart:N`:
+    /// the most any split over N processes could hold here), seam as N pods on shared memory
     /// (`seam:N`; the scene's own clusters when it has N, else its world cut into N) — finds
     /// by doubling and bisection the most layers (every grid entity repeated along y) at which
-    /// at most `--max-overrun` of the ticks take longer than the period, each probe running
-    /// `--ticks` ticks paced at `--rate`. Plain Rapier runs as `seam-anchor`, built on first
+    /// at most `--max-overrun` of the ticks take longer than the period in every pod (every
+    /// world apart) on its own, each probe running
+    /// `--ticks` ticks paced at `--rate`. Every row leaves out the scene's scripted events,
+    /// which plain Rapier has no way to run. Plain Rapier runs as `seam-anchor`, built on first
     /// use with exactly the features its row names (cargo is needed). Prints one line per
     /// probe, then per row the largest size and its bodies against the first row's, wall and
     /// CPU time per tick (seam: the slowest pod's wall, the pods' thread CPU summed, so

@@ -16,8 +16,11 @@ pub(crate) struct CapacityArgs {
     scene: PathBuf,
     /// The rows, in order, the first the one the others are compared with: `rapier` (plain
     /// Rapier, one thread), `rapier-ed` (with enhanced-determinism, as seam's worlds),
-    /// `parallel` and `parallel-ed` (Rapier's parallel feature, every core), `seam:N` (N pods
-    /// on shared memory). Default: rapier, parallel, parallel-ed, seam:CORES, seam:4.
+    /// `parallel` and `parallel-ed` (Rapier's parallel feature, every core), `apart:N` (the
+    /// scene cut in N as seam:N cuts it, each part a plain world in its own process, all at
+    /// once, nothing crossing: the most any split over N processes could hold here), `seam:N`
+    /// (N pods on shared memory). Default: rapier, parallel, parallel-ed, apart:CORES,
+    /// seam:CORES, seam:4.
     #[arg(long, value_delimiter = ',', value_parser = Row::parse)]
     rows: Vec<Row>,
     /// Ticks each probe runs.
@@ -26,8 +29,8 @@ pub(crate) struct CapacityArgs {
     /// Ticks per second to hold.
     #[arg(long, default_value_t = 60.0)]
     rate: f64,
-    /// The largest share of ticks that may take longer than the period for a size to hold
-    /// (0.001: 0.1 %, none of 900).
+    /// The largest share of ticks that may take longer than the period for a size to hold, in
+    /// each pod (each world apart) on its own (0.001: 0.1 %, none of 900).
     #[arg(long, default_value_t = 0.001)]
     max_overrun: f64,
     /// The most layers tried.
@@ -61,7 +64,7 @@ pub(crate) fn main(args: &CapacityArgs) -> BenchResult<()> {
     let report = capacity::run(&plan, |probe| {
         eprintln!(
             "  {}: {} layers, {} bodies: wall p50 {:.2} ms, p99 {:.2} ms, CPU p50 {:.2} ms; {} of {} \
-             ticks over: {}",
+             ticks over ({:.2} % in the worst of {} processes): {}",
             probe.row,
             probe.layers,
             probe.bodies,
@@ -70,6 +73,8 @@ pub(crate) fn main(args: &CapacityArgs) -> BenchResult<()> {
             probe.cpu_p50_ns as f64 / 1e6,
             probe.overruns,
             probe.ticks,
+            probe.worst_overrun_share * 100.0,
+            probe.processes,
             if probe.holds {
                 "holds"
             } else {
