@@ -234,6 +234,18 @@ impl ClusterConfig {
         (self.replication_interval.max(1) + 1) as f32 * self.dt
     }
 
+    /// How many clusters this one knows of: itself, its neighbours and those on its world
+    /// map, each once.
+    pub(crate) fn clusters_known(&self) -> usize {
+        let mut ids: Vec<ClusterId> = std::iter::once(self.cluster_id)
+            .chain(self.neighbours.iter().copied())
+            .chain(self.world.iter().map(|c| c.id))
+            .collect();
+        ids.sort_unstable();
+        ids.dedup();
+        ids.len()
+    }
+
     /// Whether `v`'s every component is within `max_magnitude` (NaN is not): what is accepted
     /// from another cluster.
     pub(crate) fn within_bound(&self, v: [f32; 3]) -> bool {

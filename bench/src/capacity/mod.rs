@@ -358,9 +358,7 @@ impl Prober<'_> {
     ) -> BenchResult<Probe> {
         let split = scene.split_into(pods)?;
         let path = self.scratch.join(format!("scene-{pods}-{layers}.toml"));
-        let text = toml::to_string(&split)
-            .map_err(|e| BenchError::flag("SCENE", format!("cannot write it back: {e}")))?;
-        std::fs::write(&path, text).map_err(|e| BenchError::io("write", path.display(), e))?;
+        crate::scene::save(&split, &path)?;
         let mut plan = RunPlan::new(&path, "shm");
         plan.node_command.clone_from(&self.plan.node_command);
         plan.ticks = Some(self.plan.ticks);

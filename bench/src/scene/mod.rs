@@ -127,6 +127,15 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
     parse(&file, &text)
 }
 
+/// Writes `scene` to `path` as a scene file (a split one, for pods that read their scene from
+/// a file).
+pub fn save(scene: &Scene, path: &Path) -> crate::error::BenchResult<()> {
+    let text = toml::to_string(scene).map_err(|e| {
+        crate::error::BenchError::flag("SCENE", format!("cannot write it back: {e}"))
+    })?;
+    std::fs::write(path, text).map_err(|e| crate::error::BenchError::io("write", path.display(), e))
+}
+
 /// Parses and checks scene `text`; `file` names it in errors.
 pub fn parse(file: &str, text: &str) -> Result<Scene, SceneError> {
     let error_at = |offset: usize, message: String| {

@@ -151,6 +151,22 @@ impl Cells {
 mod tests {
     use std::path::Path;
 
+    /// A split scene written out (as `seam run --pods` and `seam capacity` hand it to their
+    /// pods) reads back as the same scene.
+    #[test]
+    fn a_split_scene_saves_and_loads_back() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/grid.toml");
+        let halves = crate::scene::load(&path)
+            .expect("grid")
+            .split_into(2)
+            .expect("two pods");
+        let out = std::env::temp_dir().join(format!("seam-split-{}.toml", std::process::id()));
+        crate::scene::save(&halves, &out).expect("written");
+        let back = crate::scene::load(&out);
+        let _ = std::fs::remove_file(&out);
+        assert_eq!(back.expect("reads back"), halves);
+    }
+
     /// `grid`'s four quadrants cut in two: halves at x = 0, each field in the half it starts
     /// in; cut in four: the scene's own.
     #[test]

@@ -69,6 +69,21 @@ impl Default for GroupSettings {
     }
 }
 
+/// The owner and linear velocity of each body in a touching pair, as this world knows them.
+type Bodies = Map<EntityId, (ClusterId, [f32; 3])>;
+
+fn bodies_touching(touching: &[Touching]) -> Bodies {
+    touching
+        .iter()
+        .flat_map(|t| {
+            [
+                (t.a, (t.a_owner, t.a_linvel)),
+                (t.b, (t.b_owner, t.b_linvel)),
+            ]
+        })
+        .collect()
+}
+
 /// When two bodies touched: first, and last, frame.
 #[derive(Debug, Clone, Copy)]
 struct Bond {
@@ -166,17 +181,11 @@ impl Group {
     /// The anchor of each body this cluster (`me`) owns that is in a group given one owner:
     /// at most `max_size` bodies, of at least `min_owners` owners, none moving faster than
     /// `rest_speed` against the anchor (owners and velocities from `touching`, as this world
-    /// knows them).
-    fn anchors(&self, touching: &[Touching], me: ClusterId) -> Map<EntityId, EntityId> {
-        let bodies: Map<EntityId, (ClusterId, [f32; 3])> = touching
-            .iter()
-            .flat_map(|t| {
-                [
-                    (t.a, (t.a_owner, t.a_linvel)),
-                    (t.b, (t.b_owner, t.b_linvel)),
-                ]
-            })
-            .collect();
+    /// knows them: [`bodies_touching`]).
+    fn anchors(&self, bodies: &Bodies, me: ClusterId) -> Map<EntityId, EntityId> {
+        if bodies.is_empty() {
+            return Map::default();
+        }
         let owner = |id: &EntityId| bodies.get(id).map(|b| b.0);
         let linvel = |id: &EntityId| bodies.get(id).map_or([0.0; 3], |b| b.1);
         let mut anchor_of = Map::default();
@@ -239,7 +248,12 @@ impl Group {
 }
 
 impl AuthorityPolicy for Group {
-    fn touching_budget(&self) -> usize {
+    fn touching_budget(&self, clusters: usize) -> usize {
+        if clusters < self.settings.min_owners {
+            // No group can hold bodies of enough owners (two clusters, groups where three
+            // meet): every body goes by the spatial rule, and nothing is walked for groups.
+            return 0;
+        }
         // One more than a group may hold tells a group too large.
         self.settings.max_size + 1
     }
@@ -250,12 +264,8 @@ impl AuthorityPolicy for Group {
         }
         self.observe(view.touching);
         let held = self.held(view);
-        let owners: Map<EntityId, ClusterId> = view
-            .touching
-            .iter()
-            .flat_map(|t| [(t.a, t.a_owner), (t.b, t.b_owner)])
-            .collect();
-        let anchor_of = self.anchors(view.touching, view.cluster);
+        let bodies = bodies_touching(view.touching);
+        let anchor_of = self.anchors(&bodies, view.cluster);
         let spatial = self.spatial_handoffs(view, &anchor_of, &held);
         // An anchor the spatial rule hands over takes this cluster's members of its group along.
         let anchors_handed: Map<EntityId, ClusterId> = spatial
@@ -272,7 +282,8 @@ impl AuthorityPolicy for Group {
             .collect();
         members.sort_unstable();
         for (member, anchor) in members {
-            let Some(&to) = anchors_handed.get(&anchor).or_else(|| owners.get(&anchor)) else {
+            let owner = bodies.get(&anchor).map(|b| b.0);
+            let Some(to) = anchors_handed.get(&anchor).copied().or(owner) else {
                 continue;
             };
             if to != view.cluster && live(to) {
@@ -486,6 +497,28 @@ mod tests {
         }
         handed.sort_unstable();
         assert_eq!(handed, vec![(id(10), cluster(4)), (id(11), cluster(4))]);
+    }
+
+    #[test]
+    fn contacts_are_walked_only_where_enough_clusters_could_meet() {
+        let three = Group::new(GroupSettings::default());
+        assert_eq!(
+            three.touching_budget(2),
+            0,
+            "two clusters never make three owners"
+        );
+        assert_eq!(
+            three.touching_budget(4),
+            GroupSettings::default().max_size + 1
+        );
+        let two = Group::new(GroupSettings {
+            min_owners: 2,
+            ..GroupSettings::default()
+        });
+        assert_eq!(
+            two.touching_budget(2),
+            GroupSettings::default().max_size + 1
+        );
     }
 
     #[test]

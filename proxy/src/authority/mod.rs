@@ -58,6 +58,10 @@
 //! (`bench/scenes/variants/corner-topple.toml`; 0.20 m with the rule). Giving one owner
 //! to every group across a seam (`min_owners` 2) helps no bundled scene further and costs
 //! `grid` 800 hand-offs of balls in its piles, `seam-stack` 0.5 → 1.2 cm.
+//! Where the cluster knows of fewer clusters than `min_owners` (two clusters, groups where
+//! three meet), no group can be given one owner, so no contacts are walked at all: on two
+//! `grid` pods that halved the publish phase (BENCHMARKS.md, "The group walk only where
+//! groups can form").
 //!
 //! A body is handed to a cluster that already holds a proxy of it, but for one case, on
 //! purpose: the spatial rule hands a body whose centre will be in the neighbour's region by

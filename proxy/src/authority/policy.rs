@@ -49,8 +49,11 @@ pub trait AuthorityPolicy {
 
     /// How many bodies the policy wants [`AuthorityView::touching`] walked, from each of the
     /// neighbours' bodies that move in this world, along contacts (0, the default: it does
-    /// not read it, and the contacts are not walked).
-    fn touching_budget(&self) -> usize {
+    /// not read it, and the contacts are not walked). `clusters` is how many clusters this one
+    /// knows of, itself included (its neighbours and its world map): the most owners the
+    /// bodies it sees touching can have.
+    fn touching_budget(&self, clusters: usize) -> usize {
+        let _ = clusters;
         0
     }
 }

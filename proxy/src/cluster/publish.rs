@@ -111,7 +111,7 @@ impl Cluster {
             return;
         };
         let neighbours = self.neighbours.views(&self.config);
-        let budget = policy.touching_budget();
+        let budget = policy.touching_budget(self.config.clusters_known());
         let touching = if budget > 0 && !neighbours.is_empty() {
             self.sim.touching(budget)
         } else {

@@ -1,7 +1,7 @@
 //! `seam run`: a scene as co-hosted cluster pods, one process per cluster, with progress, an
 //! optional recording and live inspector, and the merged report.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
@@ -39,6 +39,12 @@ pub(crate) struct RunArgs {
     /// traffic with more entities (`grid` holds 2 500 balls per layer).
     #[arg(long, default_value_t = 1)]
     layers: u32,
+    /// Run the scene cut into this many clusters, one pod each, as `seam capacity`'s `seam:N`
+    /// rows cut it: its own layout when it has N clusters, else the box its regions span cut
+    /// into a grid of N cells across x and z (clusters `part-0`, `part-1`, ...), each entity
+    /// in the cell its first copy starts in. Refused for a scene with scripted hand-offs.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pods: Option<u32>,
     #[command(flatten)]
     hosts: HostsArgs,
     /// Pod i of n ticks i/n of a period after pod 0, so co-hosted pods do not all want a core
@@ -143,7 +149,20 @@ impl RunArgs {
 
 /// Runs the pods, prints the report, and fails if an entity was lost or owned twice.
 pub(crate) fn main(args: &RunArgs) -> BenchResult<()> {
-    let judged = run_scene(args.plan(), &args.record, !args.no_judge)?;
+    let mut plan = args.plan();
+    let split = args
+        .pods
+        .map(|pods| split_scene(&args.scene, pods))
+        .transpose()?;
+    if let Some(split) = &split {
+        plan.scene.clone_from(split);
+    }
+    let judged = run_scene(plan, &args.record, !args.no_judge);
+    if let Some(split) = &split {
+        // Best effort: a temporary file.
+        let _ = std::fs::remove_file(split);
+    }
+    let judged = judged?;
     args.output.report(&judged, accuracy::judged_document);
     let report = &judged.run;
     if report.ownership.holds() {
@@ -155,6 +174,30 @@ pub(crate) fn main(args: &RunArgs) -> BenchResult<()> {
             report.ownership.duplicated.len()
         )))
     }
+}
+
+/// `scene` cut into `pods` clusters (`Scene::split_into`), written where the pods can read it.
+fn split_scene(scene: &Path, pods: u32) -> BenchResult<PathBuf> {
+    let split = seam_bench::scene::load(scene)?.split_into(pods as usize)?;
+    let stem = scene
+        .file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy());
+    let path = std::env::temp_dir().join(format!(
+        "seam-run-{}-{stem}-{pods}-pods.toml",
+        std::process::id()
+    ));
+    seam_bench::scene::save(&split, &path)?;
+    eprintln!(
+        "seam run: {} cut into {pods} clusters: {}",
+        scene.display(),
+        split
+            .clusters
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(path)
 }
 
 /// This executable starts the pods; the recording, if asked for, is kept even when the run
@@ -203,8 +246,8 @@ fn run_scene(mut plan: RunPlan, record: &RecordArgs, judge: bool) -> BenchResult
     }
     let against_one_world = if judge && !stopped {
         eprintln!(
-            "seam run: judging against one world (the scene run here twice: one world and \
-             its noise floor)"
+            "seam run: judging against one world (the scene run here four times: one world and \
+             the three of its noise floor)"
         );
         Some(AgainstOneWorld::judge(&plan, &nodes)?)
     } else {
