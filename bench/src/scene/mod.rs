@@ -129,11 +129,15 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 
 /// Writes `scene` to `path` as a scene file (a split one, for pods that read their scene from
 /// a file).
-pub fn save(scene: &Scene, path: &Path) -> crate::error::BenchResult<()> {
-    let text = toml::to_string(scene).map_err(|e| {
-        crate::error::BenchError::flag("SCENE", format!("cannot write it back: {e}"))
-    })?;
-    std::fs::write(path, text).map_err(|e| crate::error::BenchError::io("write", path.display(), e))
+pub fn save(scene: &Scene, path: &Path) -> Result<(), SceneError> {
+    let error = |message: String| SceneError {
+        file: path.display().to_string(),
+        line: 0,
+        column: 0,
+        message,
+    };
+    let text = toml::to_string(scene).map_err(|e| error(format!("cannot write it: {e}")))?;
+    std::fs::write(path, text).map_err(|e| error(format!("cannot write: {e}")))
 }
 
 /// Parses and checks scene `text`; `file` names it in errors.
