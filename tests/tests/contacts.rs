@@ -450,12 +450,20 @@ fn a_crate_beside_a_neighbours_spinning_ball_falls_asleep_as_in_one_world() {
 /// from the first step. West begins 50 ms after east (the wait is a second here, so a busy
 /// machine does not make it run out): before, east stepped at once without west's crate and
 /// its own fell freely through the step.
+///
+/// West stays up until east has been judged, as a running pod does. A pod that dropped its
+/// transport right after its tick took its frames with it: an iceoryx2 subscriber maps a new
+/// publisher's samples only when it next looks, so samples of a publisher gone before then
+/// never arrive (CI, stop 59: east waited its whole second and heard nothing in about half
+/// the runs here).
 #[test]
 fn a_free_running_crate_on_a_neighbours_crate_stands_from_the_first_step() {
     let (west, east) = (ClusterId::random(), ClusterId::random());
     let url = format!("local?prefix=seam_first_free_{}_", std::process::id());
     let (lower, upper) = (EntityId::random(), EntityId::random());
     let both = std::sync::Barrier::new(2);
+    // Dropped once east is judged (or its thread panics): west's pod goes down then.
+    let (judged_tx, judged_rx) = std::sync::mpsc::channel::<()>();
     let pod = |me, other, id, y: f32, late: bool| {
         let mut config = ClusterConfig::new(me, vec![other], &url);
         config.neighbour_wait_ticks = 60.0;
@@ -471,9 +479,14 @@ fn a_free_running_crate_on_a_neighbours_crate_stands_from_the_first_step() {
         cluster
     };
     // A cluster stays on its thread: east is judged there.
+    let pod = &pod;
     std::thread::scope(|s| {
-        s.spawn(|| drop(pod(west, east, lower, 0.5, true)));
-        let judged = s.spawn(|| {
+        s.spawn(move || {
+            let _west = pod(west, east, lower, 0.5, true);
+            let _ = judged_rx.recv_timeout(Duration::from_secs(30));
+        });
+        let judged = s.spawn(move || {
+            let _judged = judged_tx;
             assert_stood_from_the_first_step(&pod(east, west, upper, 1.5, false), lower, upper)
         });
         judged
