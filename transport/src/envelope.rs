@@ -2,7 +2,7 @@
 //!
 //! It names the publishing transport, numbers the publisher's messages per channel, gives the
 //! payload length and carries the message's keyed tag (all zero without a key; see
-//! [`crate::auth`]). Gaps in the numbering are how a receiver counts messages it lost to a full
+//! [`crate::auth`]) and its signer and signature (all zero unsigned; see [`crate::signing`]). Gaps in the numbering are how a receiver counts messages it lost to a full
 //! buffer; bytes that do not start with a valid envelope are counted as malformed and skipped.
 //! On shared memory the envelope is the iceoryx2 user header (the payload stays the caller's
 //! bytes, zero copy); on Redis it is the first [`Envelope::WIRE_LEN`] bytes of the message.
@@ -13,11 +13,11 @@ use std::hash::{BuildHasher, Hash, Hasher};
 use iceoryx2::prelude::ZeroCopySend;
 
 /// The envelope format version; a receiver drops envelopes of another version as malformed.
-pub const ENVELOPE_VERSION: u32 = 2;
+pub const ENVELOPE_VERSION: u32 = 3;
 const MAGIC: u32 = u32::from_le_bytes(*b"seam");
 
 /// Header of one message.
-#[derive(Debug, Default, Clone, Copy, PartialEq, Eq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ZeroCopySend)]
 #[repr(C)]
 #[type_name("seam::Envelope")]
 pub struct Envelope {
@@ -33,11 +33,30 @@ pub struct Envelope {
     pub len: u64,
     /// Keyed tag over the channel, the fields above and the payload (see [`crate::auth`]).
     pub tag: crate::auth::Tag,
+    /// The signer's identity, little-endian (zero unsigned; see [`crate::signing`]).
+    pub signer: [u8; 16],
+    /// ed25519 signature over the channel, the fields above but the tag, and the payload.
+    pub signature: crate::signing::SignatureBytes,
+}
+
+impl Default for Envelope {
+    fn default() -> Self {
+        Self {
+            magic: 0,
+            version: 0,
+            publisher: 0,
+            seq: 0,
+            len: 0,
+            tag: [0; crate::auth::TAG_LEN],
+            signer: [0; 16],
+            signature: [0; crate::signing::SIGNATURE_LEN],
+        }
+    }
 }
 
 impl Envelope {
     /// Bytes the envelope takes on a byte-stream backend.
-    pub const WIRE_LEN: usize = 48;
+    pub const WIRE_LEN: usize = 128;
 
     /// An untagged envelope for message `seq` of `publisher` with `len` payload bytes.
     pub fn new(publisher: u64, seq: u64, len: usize) -> Self {
@@ -47,40 +66,50 @@ impl Envelope {
             publisher,
             seq,
             len: len as u64,
-            tag: [0; crate::auth::TAG_LEN],
+            ..Self::default()
         }
     }
 
     /// The envelope of message `seq` of `publisher` carrying `payload` on `channel`, tagged
-    /// with `key` if there is one.
+    /// with the seal's key and signed by its signer, where it has them.
     pub(crate) fn sealed(
-        key: Option<&crate::auth::FrameKey>,
+        seal: &Seal,
         channel: &str,
         publisher: u64,
         seq: u64,
         payload: &[u8],
     ) -> Self {
         let mut envelope = Self::new(publisher, seq, payload.len());
-        if let Some(key) = key {
+        if let Some(key) = &seal.key {
             envelope.tag = key.tag(channel, publisher, seq, payload);
+        }
+        if let Some(signer) = &seal.signer {
+            envelope.signer = signer.id().to_le_bytes();
+            let digest = crate::signing::digest(channel, publisher, seq, signer.id(), payload);
+            envelope.signature = signer.sign(&digest);
         }
         envelope
     }
 
-    /// The envelope of a message passed on unchanged: `origin`'s publisher, number and tag.
+    /// The envelope of a message passed on unchanged: `origin`'s publisher, number, tag,
+    /// signer and signature.
     pub fn forwarded(origin: crate::Origin, len: usize) -> Self {
         Self {
             tag: origin.tag,
+            signer: origin.signer.to_le_bytes(),
+            signature: origin.signature,
             ..Self::new(origin.publisher, origin.seq, len)
         }
     }
 
-    /// The publisher, number and tag this envelope carries.
+    /// The publisher, number, tag, signer and signature this envelope carries.
     pub fn origin(&self) -> crate::Origin {
         crate::Origin {
             publisher: self.publisher,
             seq: self.seq,
             tag: self.tag,
+            signer: u128::from_le_bytes(self.signer),
+            signature: self.signature,
         }
     }
 
@@ -97,6 +126,8 @@ impl Envelope {
         out[16..24].copy_from_slice(&self.seq.to_le_bytes());
         out[24..32].copy_from_slice(&self.len.to_le_bytes());
         out[32..48].copy_from_slice(&self.tag);
+        out[48..64].copy_from_slice(&self.signer);
+        out[64..128].copy_from_slice(&self.signature);
     }
 
     /// Splits a wire message into its valid envelope and payload, or `None` if it is not one.
@@ -110,6 +141,10 @@ impl Envelope {
             seq: word(16),
             len: word(24),
             tag: head[32..48].try_into().unwrap_or_default(),
+            signer: head[48..64].try_into().unwrap_or_default(),
+            signature: head[64..128]
+                .try_into()
+                .unwrap_or([0; crate::signing::SIGNATURE_LEN]),
         };
         (envelope.is_valid() && envelope.len == payload.len() as u64).then_some((envelope, payload))
     }
@@ -175,24 +210,56 @@ impl GapDetector {
     }
 }
 
+/// What a publishing transport seals its envelopes with: the deployment's key (tags) and its
+/// own signer (signatures), each where it has one.
+#[derive(Debug, Default)]
+pub(crate) struct Seal {
+    pub(crate) key: Option<crate::auth::FrameKey>,
+    pub(crate) signer: Option<crate::signing::Signer>,
+}
+
+impl Seal {
+    /// The seal of a transport with `key` and `signing`'s signer.
+    pub(crate) fn new(
+        key: Option<crate::auth::FrameKey>,
+        signing: &crate::signing::Signing,
+    ) -> std::sync::Arc<Self> {
+        std::sync::Arc::new(Self {
+            key,
+            signer: signing.signer.clone(),
+        })
+    }
+}
+
 /// A transport's bookkeeping: the counters of [`crate::Stats`], the sequence gaps that feed
-/// `overflow_drops`, and the frame key that checks tags.
+/// `overflow_drops`, the frame key that checks tags and the keyring that checks signatures.
 #[derive(Debug, Default)]
 pub(crate) struct Intake {
     gaps: GapDetector,
     /// The counters; backends add to `published` themselves.
     pub(crate) stats: crate::Stats,
     /// The deployment's key: messages without its tag are dropped.
-    pub(crate) key: Option<crate::auth::FrameKey>,
+    key: Option<crate::auth::FrameKey>,
+    /// The signers trusted: messages none of them signed are dropped.
+    keyring: Option<crate::signing::Keyring>,
 }
 
 impl Intake {
-    /// Bookkeeping that checks tags with `key`, if given.
-    pub(crate) fn with_key(key: Option<crate::auth::FrameKey>) -> Self {
+    /// Bookkeeping that checks tags with `key` and signatures with `keyring`, each if given.
+    pub(crate) fn new(
+        key: Option<crate::auth::FrameKey>,
+        keyring: Option<crate::signing::Keyring>,
+    ) -> Self {
         Self {
             key,
+            keyring,
             ..Self::default()
         }
+    }
+
+    /// The signer of an accepted message, where this intake checked it against a keyring.
+    pub(crate) fn checked_signer(&self, origin: &crate::Origin) -> Option<u128> {
+        self.keyring.as_ref().map(|_| origin.signer)
     }
 
     /// The key of `channel` for [`Self::accept`] and [`Self::forget_channel`].
@@ -201,8 +268,8 @@ impl Intake {
     }
 
     /// Checks a well-formed message received on `name` (whose key is `channel`) against the
-    /// frame key, if there is one; counts it, with the messages lost before it, and returns
-    /// true if it may be handed over; counts the drop and returns false if not.
+    /// frame key and the keyring, where there are; counts it, with the messages lost before
+    /// it, and returns true if it may be handed over; counts the drop and returns false if not.
     pub(crate) fn accept(
         &mut self,
         channel: u64,
@@ -225,6 +292,22 @@ impl Intake {
                 }
                 crate::auth::Verdict::Wrong => {
                     self.stats.bad_tag_drops += 1;
+                    return false;
+                }
+            }
+        }
+        if let Some(keyring) = &self.keyring {
+            let signer = u128::from_le_bytes(envelope.signer);
+            let digest =
+                crate::signing::digest(name, envelope.publisher, envelope.seq, signer, payload);
+            match keyring.check(signer, &digest, &envelope.signature) {
+                crate::signing::SignVerdict::Good => {}
+                crate::signing::SignVerdict::Unsigned => {
+                    self.stats.unsigned_drops += 1;
+                    return false;
+                }
+                crate::signing::SignVerdict::Forged => {
+                    self.stats.forged_drops += 1;
                     return false;
                 }
             }

@@ -42,6 +42,7 @@ mod message;
 mod pattern;
 mod redis;
 mod redis_cluster;
+pub mod signing;
 mod stats;
 mod transport;
 mod url;

@@ -13,6 +13,9 @@ pub struct Message<'a> {
     pub payload: &'a [u8],
     /// Who published it and its number on the channel, from its envelope.
     pub origin: Origin,
+    /// The signer whose signature the receiving transport checked against its keyring; `None`
+    /// from a transport with no keyring (which checks no signature; see [`crate::signing`]).
+    pub signer: Option<u128>,
 }
 
 /// The publisher and sequence number a message's envelope carries. A bridge that passes a
@@ -26,6 +29,10 @@ pub struct Origin {
     pub seq: u64,
     /// Its keyed tag (all zero from a publisher without a key; see [`crate::auth`]).
     pub tag: crate::auth::Tag,
+    /// The signer it names (zero unsigned; see [`crate::signing`]).
+    pub signer: u128,
+    /// Its signature (all zero unsigned).
+    pub signature: crate::signing::SignatureBytes,
 }
 
 impl Message<'_> {
@@ -36,6 +43,7 @@ impl Message<'_> {
             pattern: self.pattern.map(str::to_owned),
             payload: self.payload.to_vec(),
             origin: self.origin,
+            signer: self.signer,
         }
     }
 }
@@ -51,4 +59,6 @@ pub struct OwnedMessage {
     pub payload: Vec<u8>,
     /// Who published it and its number on the channel.
     pub origin: Origin,
+    /// The signer the receiving transport checked, if it checks signatures.
+    pub signer: Option<u128>,
 }

@@ -27,6 +27,11 @@ pub struct Stats {
     /// Messages dropped by a transport with a frame key because their tag was wrong (another
     /// key, or changed on the way).
     pub bad_tag_drops: u64,
+    /// Messages dropped by a transport with a keyring because they were not signed.
+    pub unsigned_drops: u64,
+    /// Messages dropped by a transport with a keyring because no signer it trusts signed them
+    /// as they are (an unknown signer, another signer's key, or changed on the way).
+    pub forged_drops: u64,
     /// Redis Cluster: channels subscribed again at another node after the server dropped them
     /// (their slot moved, or its primary changed).
     pub resubscribes: u64,
@@ -49,6 +54,8 @@ impl Stats {
             dropped_while_down,
             untagged_drops,
             bad_tag_drops,
+            unsigned_drops,
+            forged_drops,
             resubscribes,
             redirects,
         } = *other;
@@ -62,6 +69,8 @@ impl Stats {
         self.dropped_while_down += dropped_while_down;
         self.untagged_drops += untagged_drops;
         self.bad_tag_drops += bad_tag_drops;
+        self.unsigned_drops += unsigned_drops;
+        self.forged_drops += forged_drops;
         self.resubscribes += resubscribes;
         self.redirects += redirects;
     }

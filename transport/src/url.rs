@@ -27,6 +27,10 @@ pub(crate) enum SettingError {
     NotPositive { key: String, value: String },
     #[error("`prefix` must be 1 to 64 of [A-Za-z0-9_.-], got {value:?}")]
     Prefix { value: String },
+    #[error("cannot use sign_key {path:?}: {reason}")]
+    SignKey { path: String, reason: String },
+    #[error("cannot use keyring {path:?}: {reason}")]
+    Keyring { path: String, reason: String },
     #[error("unknown setting `{key}` (known: {known})")]
     Unknown { key: String, known: &'static str },
 }

@@ -161,7 +161,7 @@ impl Cluster {
     pub(super) fn receive_one(&mut self, timeout: Duration) -> Result<(), ClusterError> {
         if let Some(message) = self.transport.receive_timeout(timeout)? {
             let received_ns = monotonic_ns();
-            let frame = decode_frame(message.channel, message.payload);
+            let frame = decode_frame(&message);
             self.take_in(frame, received_ns);
         }
         Ok(())

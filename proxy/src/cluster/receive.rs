@@ -22,7 +22,7 @@ impl Cluster {
         };
         let cpu = self.phases.now();
         let received_ns = monotonic_ns();
-        let frame = decode_frame(message.channel, message.payload);
+        let frame = decode_frame(&message);
         self.take_in(frame, received_ns);
         self.drain()?;
         self.phases.add_since(Phase::Receive, cpu);
@@ -34,7 +34,7 @@ impl Cluster {
         while let Some(message) = self.transport.try_receive()? {
             let received_ns = monotonic_ns();
             // Decoded straight from the received bytes (on shm, the shared-memory sample).
-            let frame = decode_frame(message.channel, message.payload);
+            let frame = decode_frame(&message);
             self.take_in(frame, received_ns);
         }
         Ok(())

@@ -139,7 +139,7 @@ impl Cluster {
             }
             if let Some(message) = self.transport.receive_timeout(deadline - now)? {
                 let received_ns = monotonic_ns();
-                let frame = decode_frame(message.channel, message.payload);
+                let frame = decode_frame(&message);
                 self.take_in(frame, received_ns);
             }
             self.drain()?;

@@ -2,6 +2,7 @@
 //! shared-memory sample), or refused with the reason.
 
 use seam_sim::wire::{self, ClusterId, PhysicsEventsFrame, Stage};
+use seam_transport::Message;
 
 use super::held::HeldReplication;
 use crate::channels::{self, Channel};
@@ -75,10 +76,22 @@ fn refusal(error: wire::WireError) -> FrameRefusal {
 /// Why a received message is no frame to take, and the sender it names, where it names one.
 pub(crate) type Refused = (FrameRefusal, Option<ClusterId>);
 
-/// Decodes a message received on `channel`. A replication frame whose sender is not the
-/// cluster its channel names (refused naming the sender it claims), or a message on a channel
-/// that is not one of seam's, is from the wrong sender.
-pub(crate) fn decode_frame(channel: &str, payload: &[u8]) -> Result<Frame, Refused> {
+/// Decodes a received message. A replication frame whose sender is not the cluster its
+/// channel names, a frame whose sender is not the signer the transport checked (where it
+/// checks signatures: a pod with west's key publishing as east), each refused naming the
+/// sender it claims, or a message on a channel that is not one of seam's, is from the wrong
+/// sender.
+pub(crate) fn decode_frame(message: &Message<'_>) -> Result<Frame, Refused> {
+    let frame = decode_payload(message.channel, message.payload)?;
+    match message.signer {
+        Some(signer) if signer != frame.from().as_u128() => {
+            Err((FrameRefusal::WrongSender, Some(frame.from())))
+        }
+        _ => Ok(frame),
+    }
+}
+
+fn decode_payload(channel: &str, payload: &[u8]) -> Result<Frame, Refused> {
     let unnamed = |reason| (reason, None);
     match channels::parse(channel).ok_or(unnamed(FrameRefusal::WrongSender))? {
         Channel::Replication(from) => {

@@ -29,6 +29,9 @@ pub struct IceoryxConfig {
     pub discovery_interval: Duration,
     /// The deployment's frame key (`key=` or `key_file=`; see [`crate::auth`]).
     pub key: Option<crate::auth::FrameKey>,
+    /// This pod's signer and the keyring it checks with (`sign_key=`, `keyring=`; see
+    /// [`crate::signing`]).
+    pub signing: crate::signing::Signing,
 }
 
 impl Default for IceoryxConfig {
@@ -42,6 +45,7 @@ impl Default for IceoryxConfig {
             buffer: 16,
             discovery_interval: Duration::from_millis(50),
             key: None,
+            signing: crate::signing::Signing::default(),
         }
     }
 }
@@ -52,6 +56,9 @@ impl IceoryxConfig {
         if let Some(frame_key) = crate::auth::FrameKey::from_setting(key, value) {
             self.key = Some(frame_key?);
             return Ok(());
+        }
+        if let Some(result) = self.signing.set(key, value) {
+            return result;
         }
         let number = || {
             value
@@ -87,7 +94,8 @@ impl IceoryxConfig {
                 return Err(SettingError::Unknown {
                     key: key.to_owned(),
                     known: "prefix, max_payload, initial_payload, max_publishers, \
-                            max_subscribers, buffer, discovery_ms",
+                            max_subscribers, buffer, discovery_ms, key, key_file, sign_key, \
+                            keyring",
                 });
             }
         }

@@ -29,7 +29,7 @@ use iceoryx2::prelude::*;
 use iceoryx2::service::Service;
 
 use crate::channel::check_publish;
-use crate::envelope::{Intake, random_publisher_id};
+use crate::envelope::{Intake, Seal, random_publisher_id};
 use crate::error::{ClaimError, OpenError, PublishError, ReceiveError, SubscribeError};
 use crate::{Backend, Message, Stats, Transport, validate_channel};
 use ports::{Inlet, Outlet, PortError};
@@ -50,6 +50,8 @@ pub struct IceoryxTransport<S: Service> {
     /// The sample behind the last returned message: (index into `inlets`, sample).
     current: Option<(usize, ports::InSample<S>)>,
     intake: Intake,
+    /// The key and signer every published envelope is sealed with.
+    seal: std::sync::Arc<Seal>,
     /// Names this transport holds (see [`Transport::claim`]).
     claims: Vec<claim::Claim<S>>,
 }
@@ -97,7 +99,8 @@ where
             next_discovery: Instant::now(),
             cursor: 0,
             current: None,
-            intake: Intake::with_key(config.key.clone()),
+            intake: Intake::new(config.key.clone(), config.signing.keyring.clone()),
+            seal: Seal::new(config.key.clone(), &config.signing),
             claims: Vec::new(),
             config,
         })
@@ -183,9 +186,9 @@ where
         check_publish(channel, capacity, self.config.max_payload)?;
         let publisher_id = self.publisher_id;
         let initial = self.config.initial_payload;
-        let key = self.intake.key.clone();
+        let seal = self.seal.clone();
         let outlet = self.outlet(channel, initial)?;
-        let reached = outlet.send_with(publisher_id, key.as_ref(), capacity, write)?;
+        let reached = outlet.send_with(publisher_id, &seal, capacity, write)?;
         self.intake.stats.published += 1;
         Ok(reached)
     }
@@ -194,10 +197,10 @@ where
         check_publish(channel, payload.len(), self.config.max_payload)?;
         let publisher_id = self.publisher_id;
         let initial = self.config.initial_payload;
-        let key = self.intake.key.clone();
-        let reached =
-            self.outlet(channel, initial)?
-                .send_copy(publisher_id, key.as_ref(), payload)?;
+        let seal = self.seal.clone();
+        let reached = self
+            .outlet(channel, initial)?
+            .send_copy(publisher_id, &seal, payload)?;
         self.intake.stats.published += 1;
         Ok(reached)
     }

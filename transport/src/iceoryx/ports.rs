@@ -1,6 +1,5 @@
 //! The iceoryx2 ports behind one channel: an outlet to publish, an inlet to receive.
 
-use crate::auth::FrameKey;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
@@ -14,7 +13,7 @@ use iceoryx2::service::builder::publish_subscribe::PublishSubscribeOpenOrCreateE
 use iceoryx2::service::port_factory::{event, publish_subscribe};
 
 use super::IceoryxConfig;
-use crate::envelope::Envelope;
+use crate::envelope::{Envelope, Seal};
 use crate::error::PublishError;
 
 /// A received sample: the caller's bytes with the seam envelope as user header.
@@ -126,7 +125,7 @@ impl<S: Service> Outlet<S> {
     pub(super) fn send_with(
         &mut self,
         publisher_id: u64,
-        key: Option<&FrameKey>,
+        seal: &Seal,
         capacity: usize,
         write: &mut dyn FnMut(&mut [u8]) -> Option<usize>,
     ) -> Result<usize, PublishError> {
@@ -141,18 +140,18 @@ impl<S: Service> Outlet<S> {
         if written > capacity {
             return Err(PublishError::WriterOverrun { written, capacity });
         }
-        self.finish(publisher_id, key, written, sample)
+        self.finish(publisher_id, seal, written, sample)
     }
 
     /// Copies `payload` into a loaned sample, sends it and wakes listeners.
     pub(super) fn send_copy(
         &mut self,
         publisher_id: u64,
-        key: Option<&FrameKey>,
+        seal: &Seal,
         payload: &[u8],
     ) -> Result<usize, PublishError> {
         let sample = self.loan_copy(payload)?;
-        self.finish(publisher_id, key, payload.len(), sample)
+        self.finish(publisher_id, seal, payload.len(), sample)
     }
 
     /// A loaned sample holding a copy of `payload`.
@@ -167,13 +166,13 @@ impl<S: Service> Outlet<S> {
     fn finish(
         &mut self,
         publisher_id: u64,
-        key: Option<&FrameKey>,
+        seal: &Seal,
         written: usize,
         sample: SampleMut<S, [u8], Envelope>,
     ) -> Result<usize, PublishError> {
         self.seq += 1;
         let envelope = Envelope::sealed(
-            key,
+            seal,
             &self.channel,
             publisher_id,
             self.seq,

@@ -100,6 +100,7 @@ where
             },
             payload: &sample.payload()[..len],
             origin: sample.user_header().origin(),
+            signer: self.intake.checked_signer(&sample.user_header().origin()),
         })
     }
 

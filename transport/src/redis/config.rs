@@ -20,6 +20,9 @@ pub struct RedisConfig {
     pub connect_timeout: Duration,
     /// The deployment's frame key (`key=` or `key_file=`; see [`crate::auth`]).
     pub key: Option<crate::auth::FrameKey>,
+    /// This pod's signer and the keyring it checks with (`sign_key=`, `keyring=`; see
+    /// [`crate::signing`]).
+    pub signing: crate::signing::Signing,
     /// How long a claim's lease lasts without renewal (`lease_ms`; see
     /// [`Transport::claim`](crate::Transport::claim)).
     pub lease: Duration,
@@ -33,6 +36,7 @@ impl Default for RedisConfig {
             reconnect: true,
             connect_timeout: Duration::from_millis(250),
             key: None,
+            signing: crate::signing::Signing::default(),
             lease: Duration::from_secs(3),
         }
     }
@@ -72,6 +76,10 @@ impl Endpoint {
                 config.key = Some(frame_key.map_err(|e| invalid(e.to_string()))?);
                 continue;
             }
+            if let Some(result) = config.signing.set(key, value) {
+                result.map_err(|e| invalid(e.to_string()))?;
+                continue;
+            }
             match key {
                 "max_payload" => config.max_payload = number()? as usize,
                 "timeout_ms" => config.timeout = Duration::from_millis(number()?),
@@ -90,7 +98,8 @@ impl Endpoint {
                 _ => {
                     return Err(invalid(format!(
                         "unknown setting `{key}`: the Redis backend takes max_payload, \
-                         timeout_ms, connect_ms, reconnect, lease_ms, key and key_file, and \
+                         timeout_ms, connect_ms, reconnect, lease_ms, key, key_file, sign_key and \
+                         keyring, and \
                          passes protocol, db, user, pass and insecure to redis-rs"
                     )));
                 }

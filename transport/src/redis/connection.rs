@@ -200,11 +200,7 @@ impl RedisTransport {
                             pattern: pattern.map(|p| String::from_utf8_lossy(p).into_owned()),
                             payload: 0..wire.len(),
                             wire: wire.to_vec(),
-                            origin: crate::Origin {
-                                publisher: 0,
-                                seq: 0,
-                                tag: [0; crate::auth::TAG_LEN],
-                            },
+                            origin: crate::Envelope::default().origin(),
                         };
                         self.early.push_back(early);
                     }

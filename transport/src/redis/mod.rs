@@ -48,7 +48,7 @@ use std::time::{Duration, Instant};
 use redis::ConnectionLike;
 
 use crate::channel::check_publish;
-use crate::envelope::{Envelope, Intake, SeqCounter, random_publisher_id};
+use crate::envelope::{Envelope, Intake, Seal, SeqCounter, random_publisher_id};
 use crate::error::{ClaimError, OpenError, PublishError, ReceiveError, SubscribeError};
 use crate::{Backend, MAX_CHANNEL_LEN, Message, Stats, Transport};
 use socket::Socket;
@@ -70,6 +70,8 @@ pub struct RedisTransport {
     /// Bytes of an oversized reply still to skip.
     discard: usize,
     intake: Intake,
+    /// The key and signer every published envelope is sealed with.
+    seal: std::sync::Arc<Seal>,
     /// Subscriptions in force, to renew after a reconnect: (`SUBSCRIBE` or `PSUBSCRIBE`, name).
     subscriptions: Vec<(&'static str, String)>,
     /// Set while the server is unreachable.
@@ -96,7 +98,8 @@ impl RedisTransport {
     /// Connects to the Redis server named by `url`.
     pub fn open(url: &str) -> Result<Self, OpenError> {
         let (config, endpoint) = Endpoint::from_url(url)?;
-        let key = config.key.clone();
+        let intake = Intake::new(config.key.clone(), config.signing.keyring.clone());
+        let seal = Seal::new(config.key.clone(), &config.signing);
         let (publisher, socket) = endpoint.connect(config.timeout, config.timeout)?;
         let mut transport = Self {
             config,
@@ -110,7 +113,8 @@ impl RedisTransport {
             early: VecDeque::new(),
             current: None,
             discard: 0,
-            intake: Intake::with_key(key),
+            intake,
+            seal,
             subscriptions: Vec::new(),
             outage: None,
             leases: Vec::new(),
@@ -204,7 +208,7 @@ impl Transport for RedisTransport {
         self.out.truncate(Envelope::WIRE_LEN + written);
         let seq = self.seqs.next(channel);
         let envelope = Envelope::sealed(
-            self.config.key.as_ref(),
+            &self.seal,
             channel,
             self.publisher_id,
             seq,

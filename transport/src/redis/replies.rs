@@ -267,6 +267,7 @@ impl RedisTransport {
                     pattern: pattern.clone().map(|p| text(&buf[p])),
                     payload: &buf[payload.clone()],
                     origin: *origin,
+                    signer: self.intake.checked_signer(origin),
                 })
             }
             Current::Early(early) => Some(Message {
@@ -274,6 +275,7 @@ impl RedisTransport {
                 pattern: early.pattern.as_deref(),
                 payload: &early.wire[early.payload.clone()],
                 origin: early.origin,
+                signer: self.intake.checked_signer(&early.origin),
             }),
         }
     }

@@ -38,7 +38,7 @@ use std::time::{Duration, Instant};
 use rustix::event::{PollFd, PollFlags, Timespec};
 
 use crate::channel::{check_publish, validate_channel};
-use crate::envelope::{Envelope, SeqCounter, random_publisher_id};
+use crate::envelope::{Envelope, Seal, SeqCounter, random_publisher_id};
 use crate::error::{ClaimError, OpenError, PublishError, ReceiveError, SubscribeError};
 use crate::redis::{RedisConfig, RedisTransport, claim_key, no_patterns};
 use crate::{Backend, Message, Origin, Stats, Transport};
@@ -59,6 +59,9 @@ pub struct RedisClusterTransport {
     query: String,
     seeds: Vec<String>,
     config: RedisConfig,
+    /// The key and signer every published envelope is sealed with (from the first link's
+    /// settings).
+    seal: std::sync::Arc<Seal>,
     slots: SlotMap,
     links: Vec<RedisTransport>,
     publisher_id: u64,
@@ -91,6 +94,7 @@ impl RedisClusterTransport {
             query,
             seeds,
             config: RedisConfig::default(),
+            seal: std::sync::Arc::default(),
             slots: SlotMap::default(),
             links: Vec::new(),
             publisher_id: random_publisher_id(),
@@ -147,6 +151,7 @@ impl RedisClusterTransport {
             reason: e.to_string(),
         })?;
         self.config = link.config().clone();
+        self.seal = Seal::new(self.config.key.clone(), &self.config.signing);
         self.last_refresh = Instant::now();
         Ok(())
     }
@@ -256,13 +261,7 @@ impl Transport for RedisClusterTransport {
         }
         self.out.truncate(written);
         let seq = self.seqs.next(channel);
-        let envelope = Envelope::sealed(
-            self.config.key.as_ref(),
-            channel,
-            self.publisher_id,
-            seq,
-            &self.out,
-        );
+        let envelope = Envelope::sealed(&self.seal, channel, self.publisher_id, seq, &self.out);
         self.send(channel, envelope)
     }
 
