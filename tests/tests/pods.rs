@@ -13,7 +13,11 @@ use seam_tests::TestContext;
 
 seam_tests::backend_tests!(
     [shm: Shm, redis: Redis],
-    [crossfire_pods_cross_the_seam, crossfire_pods_scripted_report_contacts]
+    [
+        crossfire_pods_cross_the_seam,
+        crossfire_pods_scripted_report_contacts,
+        signed_crossfire_pods_cross_the_seam
+    ]
 );
 
 fn scene(name: &str) -> PathBuf {
@@ -63,6 +67,33 @@ fn run_judged(
     let against = AgainstOneWorld::judge(&plan, &nodes)
         .unwrap_or_else(|e| panic!("judging {scene_name} against one world: {e}"));
     (report, against)
+}
+
+/// The main job with `seam run --sign`: every pod signs with its own cluster's key and checks
+/// every frame against the run's keyring, and crossfire holds as unsigned, with every frame
+/// taken (none unsigned, none forged, none refused).
+fn signed_crossfire_pods_cross_the_seam(ctx: &TestContext) {
+    let plan = RunPlan {
+        sign: true,
+        track_flips: true,
+        ..plan("crossfire", ctx.url(), 300.0, 360)
+    };
+    let (report, nodes) = run::run_pods(&plan, &AtomicBool::new(false), |_| {})
+        .unwrap_or_else(|e| panic!("seam run --sign crossfire on {}: {e}", ctx.url()));
+    let text = assert_crossfire_holds(&report);
+    for node in &nodes {
+        assert!(
+            node.transport.contains("sign_key=") && node.transport.contains("keyring="),
+            "each pod signs and checks: {}",
+            node.transport
+        );
+    }
+    for p in &report.pods {
+        let t = &p.transport_stats;
+        assert_eq!((t.unsigned_drops, t.forged_drops), (0, 0), "{text}");
+        assert_eq!(p.cluster_stats.frames_refused(), 0, "{text}");
+        assert!(p.cluster_stats.frames_accepted >= 2 * 360, "{text}");
+    }
 }
 
 fn pod<'a>(report: &'a RunReport, name: &str) -> &'a PodSummary {

@@ -91,6 +91,12 @@ pub struct TransportCounts {
     /// Messages with a wrong tag dropped by a transport with a frame key.
     #[serde(default)]
     pub bad_tag_drops: u64,
+    /// Messages without a signature dropped by a transport with a keyring.
+    #[serde(default)]
+    pub unsigned_drops: u64,
+    /// Messages no trusted signer signed, dropped by a transport with a keyring.
+    #[serde(default)]
+    pub forged_drops: u64,
 }
 
 impl From<seam_transport::Stats> for TransportCounts {
@@ -106,6 +112,8 @@ impl From<seam_transport::Stats> for TransportCounts {
             dropped_while_down: s.dropped_while_down,
             untagged_drops: s.untagged_drops,
             bad_tag_drops: s.bad_tag_drops,
+            unsigned_drops: s.unsigned_drops,
+            forged_drops: s.forged_drops,
         }
     }
 }

@@ -18,6 +18,7 @@ mod netns;
 pub mod ownership;
 mod phases;
 mod report;
+mod signing;
 
 use std::ffi::OsString;
 use std::io::{BufRead, BufReader};
@@ -77,6 +78,9 @@ pub struct RunPlan {
     /// Each pod records its stream into a part file in this folder (`seam node --record`);
     /// see [`crate::record`].
     pub record_dir: Option<PathBuf>,
+    /// Each pod signs with its own cluster's key and checks every frame against the run's
+    /// keyring (`seam run --sign`; see [`signing`]).
+    pub sign: bool,
 }
 
 impl RunPlan {
@@ -105,6 +109,7 @@ impl RunPlan {
             hosts: HostsPlan::default(),
             track_flips: false,
             record_dir: None,
+            sign: false,
         }
     }
 
@@ -400,11 +405,20 @@ pub fn run_pods(
     let redis_url = redis_of(plan, &scene)?;
     let redis_cpu_start = redis_url.and_then(crate::redis_server::server_cpu_s);
     let bridges = hosts::Bridges::start(plan, &scene)?;
+    let keys = if plan.sign {
+        Some(signing::RunKeys::make(&plan.run_id, &scene)?)
+    } else {
+        None
+    };
     let start_at = start_at.max(monotonic_ns() + plan.start_delay.as_nanos() as u64);
     for (index, cluster) in scene.clusters.iter().enumerate() {
         let url = match &bridges {
             Some(bridges) => Some(bridges.pod_url(plan, index)?),
             None => None,
+        };
+        let url = match &keys {
+            Some(keys) => Some(keys.url(index, url.as_deref().unwrap_or(&plan.transport))),
+            None => url,
         };
         let (child, forwarder) = spawn_pod(
             plan,

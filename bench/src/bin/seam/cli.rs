@@ -7,7 +7,7 @@ use seam_bench::document::Document;
 use seam_bench::node::NodeArgs;
 
 use crate::cmd::{
-    capacity, chaos, compare, inspect, network, ops, ping, run, scene, sweep, throughput,
+    capacity, chaos, compare, inspect, keys, network, ops, ping, run, scene, sweep, throughput,
 };
 
 #[derive(Parser)]
@@ -145,6 +145,14 @@ pub(crate) enum Command {
     /// Beside each `shm` row it measures plain iceoryx2 (no seam layer, busy-polling) as the
     /// floor, and prints the shm / iceoryx2 and redis / shm ratios of one run.
     Ping(ping::PingArgs),
+    /// Make per-cluster signing keys and the keyring that checks them.
+    ///
+    /// With `sign_key=ID.key` in its transport URL a pod signs every message it publishes
+    /// (ed25519); with `keyring=keyring` a pod drops, and counts, any message no cluster of
+    /// the keyring signed, and refuses a frame whose claimed sender is not its signer — so a
+    /// pod holding one cluster's key cannot speak for another. Works on every backend and
+    /// through bridges. Prints the URL settings for each cluster.
+    Keys(keys::KeysArgs),
     /// Measure messages a second through one Redis server and through Redis Clusters.
     ///
     /// Makes each target itself (a private redis-server; private clusters of 1 and 3 primaries

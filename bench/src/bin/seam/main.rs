@@ -39,6 +39,7 @@ fn run(command: &Command) -> BenchResult<()> {
         Command::Node(args) => cmd::node::main(args),
         Command::Bridge(args) => cmd::bridge::main(args),
         Command::Ping(args) => cmd::ping::main(args),
+        Command::Keys(args) => cmd::keys::main(args),
         Command::Throughput(args) => cmd::throughput::main(args),
         Command::Ops(args) => cmd::ops::main(args),
         Command::Scene(args) => cmd::scene::main(args),

@@ -7,6 +7,7 @@ pub(crate) mod capacity;
 pub(crate) mod chaos;
 pub(crate) mod compare;
 pub(crate) mod inspect;
+pub(crate) mod keys;
 pub(crate) mod network;
 pub(crate) mod node;
 pub(crate) mod ops;
