@@ -272,7 +272,9 @@
 //! - `channels` — channel names ([`replication`], [`physics_events`]), and the name a cluster
 //!   claims so that it runs once.
 //! - `error` — [`ClusterError`].
+//! - `acl` — [`redis_acl_rules`]: the Redis ACL user of one cluster's pod.
 
+mod acl;
 mod authority;
 mod bridge;
 mod channels;
@@ -292,6 +294,7 @@ mod routing;
 mod runtime;
 mod world;
 
+pub use acl::redis_acl_rules;
 pub use authority::{
     AuthorityMode, AuthorityPolicy, AuthorityView, Group, GroupSettings, NeighbourView, Spatial,
     SpatialSettings, Touching,

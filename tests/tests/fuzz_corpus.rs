@@ -52,18 +52,38 @@ fn the_seeds_hold_whole_and_delta_frames() {
     assert!(kinds.contains(&true) && kinds.contains(&false), "{kinds:?}");
 }
 
-/// A seed starts the envelope fuzzer on the current envelope version, tag included.
+/// A seed starts the envelope fuzzer on the current envelope version, tag and signature
+/// included: the tag made with the key of `fuzz-seed-secret`, the signature by the signer
+/// 0x5eed whose secret key is 32 bytes of 7, both on `replication:{seed}`.
 #[test]
-fn an_envelope_seed_is_a_current_tagged_envelope() {
+fn an_envelope_seed_is_a_current_tagged_signed_envelope() {
+    use seam_transport::signing::{Keyring, SignVerdict, Signer, digest};
     let bytes = std::fs::read(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds/envelope/tagged_v2"),
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../fuzz/seeds/envelope/tagged_signed_v3"),
     )
     .expect("the seed");
     let (envelope, payload) =
         seam_transport::Envelope::split(&bytes).expect("the seed is a valid envelope");
     assert_eq!(envelope.version, seam_transport::ENVELOPE_VERSION);
-    assert_ne!(envelope.tag, [0; seam_transport::auth::TAG_LEN]);
     assert_eq!(payload, b"frame bytes");
+    let channel = "replication:{seed}";
+    let key = seam_transport::auth::FrameKey::derive(b"fuzz-seed-secret");
+    let (publisher, seq) = (envelope.publisher, envelope.seq);
+    assert_eq!(
+        key.check(channel, publisher, seq, payload, &envelope.tag),
+        seam_transport::auth::Verdict::Good
+    );
+    let signer = u128::from_le_bytes(envelope.signer);
+    let ring = Keyring::of([&Signer::from_seed(0x5eed, [7; 32])]);
+    assert_eq!(
+        ring.check(
+            signer,
+            &digest(channel, publisher, seq, signer, payload),
+            &envelope.signature
+        ),
+        SignVerdict::Good
+    );
 }
 
 /// Every hand-made events seed is a frame of the current wire version, and one is an

@@ -132,6 +132,19 @@ pub enum PublishError {
         /// What failed.
         reason: String,
     },
+    /// The server refused the publish (`NOPERM`: this login's ACL user may not publish on
+    /// the channel).
+    #[error(
+        "the Redis server at {addr} refused publishing on {channel:?} to this login (its ACL user may not publish there): {reason}"
+    )]
+    Refused {
+        /// `host:port` or socket path.
+        addr: String,
+        /// The channel.
+        channel: String,
+        /// The server's answer.
+        reason: String,
+    },
 }
 
 /// Why a subscription change did not happen.
@@ -165,6 +178,19 @@ pub enum SubscribeError {
         /// `host:port` or socket path.
         addr: String,
         /// What failed.
+        reason: String,
+    },
+    /// The server refused the subscription (`NOPERM`: this login's ACL user may not read the
+    /// channel).
+    #[error(
+        "the Redis server at {addr} refused subscribing to {channel:?} to this login (its ACL user may not read it): {reason}"
+    )]
+    Refused {
+        /// `host:port` or socket path.
+        addr: String,
+        /// The channel or pattern.
+        channel: String,
+        /// The server's answer.
         reason: String,
     },
     /// The backend has no such subscription.

@@ -22,7 +22,7 @@
 //! - `channel` — the channel-name rule every backend enforces.
 //! - `pattern` — Redis glob matching, for backends that match patterns themselves.
 //! - `message` — [`Message`] (borrowed, zero copy) and [`OwnedMessage`].
-//! - `envelope` — the header every message carries: publisher, sequence, length.
+//! - `envelope` — the header every message carries: publisher, sequence, length, tag, signer.
 //! - `stats` — [`Stats`]: published, received, overflow and malformed drops.
 //! - `error` — one error type per operation.
 //! - `iceoryx` — the generic iceoryx2 backend behind `shm` and `local`.
@@ -30,6 +30,7 @@
 //! - `redis_cluster` — the Redis Cluster backend: slot routing, one sharded Redis link per
 //!   primary, following slot moves and failovers.
 //! - [`auth`] — frame keys: the keyed tag a message carries when a deployment sets one.
+//! - [`signing`] — per-cluster signatures: who signed a message, checked against a keyring.
 //! - `url` — the one reader of a URL's `?key=value` settings.
 //! - `fuzzing` — entry points for the fuzz targets in `fuzz/` (hidden; not part of the API).
 

@@ -387,6 +387,24 @@ fn complete_reports(
     complete
 }
 
+/// Pod `index`'s transport URL when not the plan's: its host's (through a bridge), with its
+/// signing settings.
+fn pod_url(
+    plan: &RunPlan,
+    bridges: Option<&hosts::Bridges>,
+    keys: Option<&signing::RunKeys>,
+    index: usize,
+) -> BenchResult<Option<String>> {
+    let url = match bridges {
+        Some(bridges) => Some(bridges.pod_url(plan, index)?),
+        None => None,
+    };
+    Ok(match keys {
+        Some(keys) => Some(keys.url(index, url.as_deref().unwrap_or(&plan.transport))),
+        None => url,
+    })
+}
+
 /// As [`run`], also returning each pod's own report (hits, final positions, histograms).
 pub fn run_pods(
     plan: &RunPlan,
@@ -405,21 +423,10 @@ pub fn run_pods(
     let redis_url = redis_of(plan, &scene)?;
     let redis_cpu_start = redis_url.and_then(crate::redis_server::server_cpu_s);
     let bridges = hosts::Bridges::start(plan, &scene)?;
-    let keys = if plan.sign {
-        Some(signing::RunKeys::make(&plan.run_id, &scene)?)
-    } else {
-        None
-    };
+    let keys = signing::RunKeys::for_plan(plan, &scene)?;
     let start_at = start_at.max(monotonic_ns() + plan.start_delay.as_nanos() as u64);
     for (index, cluster) in scene.clusters.iter().enumerate() {
-        let url = match &bridges {
-            Some(bridges) => Some(bridges.pod_url(plan, index)?),
-            None => None,
-        };
-        let url = match &keys {
-            Some(keys) => Some(keys.url(index, url.as_deref().unwrap_or(&plan.transport))),
-            None => url,
-        };
+        let url = pod_url(plan, bridges.as_ref(), keys.as_ref(), index)?;
         let (child, forwarder) = spawn_pod(
             plan,
             &PodLaunch {

@@ -18,8 +18,17 @@ pub(super) struct RunKeys {
 }
 
 impl RunKeys {
+    /// The keys of a run of `scene` by `plan`, if it signs.
+    pub(super) fn for_plan(plan: &super::RunPlan, scene: &Scene) -> BenchResult<Option<Self>> {
+        if plan.sign {
+            Self::make(&plan.run_id, scene).map(Some)
+        } else {
+            Ok(None)
+        }
+    }
+
     /// Keys for each cluster of `scene` in run `run_id`, written under a fresh folder.
-    pub(super) fn make(run_id: &str, scene: &Scene) -> BenchResult<Self> {
+    fn make(run_id: &str, scene: &Scene) -> BenchResult<Self> {
         let dir = std::env::temp_dir().join(format!("seam-keys-{run_id}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).map_err(|e| BenchError::io("create", dir.display(), e))?;
         let ids = SceneIds::new(run_id, &scene.name);

@@ -274,6 +274,13 @@ impl RedisTransport {
                 recorded(&mut self.subscriptions);
                 Ok(())
             }
+            Err(CommandError::Refused(reason)) if reason.starts_with("NOPERM") => {
+                Err(SubscribeError::Refused {
+                    addr: self.addr.clone(),
+                    channel: name.to_owned(),
+                    reason: self.endpoint.scrub(reason),
+                })
+            }
             Err(reason) => Err(SubscribeError::Disconnected {
                 addr: self.addr.clone(),
                 reason: self.endpoint.scrub(reason.to_string()),

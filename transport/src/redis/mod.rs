@@ -170,6 +170,13 @@ impl RedisTransport {
                 self.intake.stats.dropped_while_down += 1;
                 return Ok(0);
             }
+            Err(e) if e.code() == Some("NOPERM") => {
+                return Err(PublishError::Refused {
+                    addr: self.addr.clone(),
+                    channel: channel.to_owned(),
+                    reason: self.endpoint.scrub(e.to_string()),
+                });
+            }
             Err(e) => {
                 return Err(PublishError::Disconnected {
                     addr: self.addr.clone(),
