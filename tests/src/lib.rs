@@ -16,6 +16,7 @@
 //! - `tests/access.rs` — a pod's shared memory and files are its user's only.
 //! - `tests/signing.rs` — a pod holding one cluster's signing key cannot speak for another.
 //! - `tests/acl.rs` — one Redis ACL user per cluster: the server refuses another's channels.
+//! - `tests/tls.rs` — `rediss://` to a server whose certificate the test's own CA signed.
 //! - `tests/acceptance.rs` — the three layers end to end on every transport.
 //! - `tests/contacts.rs` — contacts across the seam against one world.
 //! - `tests/corner_contacts.rs` — one block at a corner of four clusters hit three ways, against

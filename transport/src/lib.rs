@@ -11,6 +11,7 @@
 //! | `shm`, `shm?prefix=test42&buffer=64` | [`ShmTransport`]: iceoryx2 `ipc::Service`, across processes |
 //! | `local` | [`LocalTransport`]: iceoryx2 `local::Service`, one process |
 //! | `redis://[user:password@]host:port[/db]` | [`RedisTransport`] |
+//! | `rediss://[user:password@]host:port[/db][?tls_ca=PATH]` | [`RedisTransport`] over TLS |
 //! | `redis-cluster://[user:password@]host:port[,host:port…]` | [`RedisClusterTransport`]: sharded pub/sub |
 //!
 //! Shared-memory settings are listed on [`IceoryxConfig`]; Redis settings on [`RedisConfig`]
@@ -69,14 +70,16 @@ pub mod fuzzing {
     }
 }
 
-/// Opens the transport a URL names: `shm[?settings]`, `local[?settings]`, `redis://…` or
-/// `redis-cluster://…`.
+/// Opens the transport a URL names: `shm[?settings]`, `local[?settings]`, `redis://…`,
+/// `rediss://…` (TLS) or `redis-cluster://…`.
 pub fn open(url: &str) -> Result<Box<dyn Transport>, OpenError> {
     let url = url.trim();
     if url.starts_with("redis-cluster://") {
         return Ok(Box::new(RedisClusterTransport::open(url)?));
     }
-    if url.starts_with("redis://") || url.starts_with("redis+unix://") || url.starts_with("unix://")
+    if ["redis://", "rediss://", "redis+unix://", "unix://"]
+        .iter()
+        .any(|scheme| url.starts_with(scheme))
     {
         return Ok(Box::new(RedisTransport::open(url)?));
     }

@@ -79,7 +79,7 @@ pub struct RunPlan {
     /// see [`crate::record`].
     pub record_dir: Option<PathBuf>,
     /// Each pod signs with its own cluster's key and checks every frame against the run's
-    /// keyring (`seam run --sign`; see [`signing`]).
+    /// keyring (`seam run --sign`; see `seam_transport::signing`).
     pub sign: bool,
 }
 

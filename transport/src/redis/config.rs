@@ -6,6 +6,7 @@ use std::time::Duration;
 use crate::error::OpenError;
 
 use super::socket::Socket;
+use super::tls::Tls;
 
 /// Settings of the Redis backend beyond what redis-rs reads from the URL.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -45,6 +46,8 @@ impl Default for RedisConfig {
 /// The server, as the URL names it.
 pub(super) struct Endpoint {
     pub(super) client: redis::Client,
+    /// TLS to it, for a `rediss://` URL.
+    tls: Option<Tls>,
     /// `host:port` or socket path, for messages (never the password).
     pub(super) addr: String,
     pub(super) username: Option<String>,
@@ -63,6 +66,7 @@ impl Endpoint {
         let (base, settings) = crate::url::split(url);
         let mut config = RedisConfig::default();
         let mut passed = Vec::new();
+        let mut tls_ca = None;
         for setting in settings {
             let (key, value) = (setting.key, setting.value);
             let number = || {
@@ -81,6 +85,7 @@ impl Endpoint {
                 continue;
             }
             match key {
+                "tls_ca" => tls_ca = Some(value),
                 "max_payload" => config.max_payload = number()? as usize,
                 "timeout_ms" => config.timeout = Duration::from_millis(number()?),
                 "connect_ms" => config.connect_timeout = Duration::from_millis(number()?),
@@ -98,8 +103,8 @@ impl Endpoint {
                 _ => {
                     return Err(invalid(format!(
                         "unknown setting `{key}`: the Redis backend takes max_payload, \
-                         timeout_ms, connect_ms, reconnect, lease_ms, key, key_file, sign_key and \
-                         keyring, and \
+                         timeout_ms, connect_ms, reconnect, lease_ms, key, key_file, sign_key, \
+                         keyring and tls_ca, and \
                          passes protocol, db, user, pass and insecure to redis-rs"
                     )));
                 }
@@ -110,13 +115,14 @@ impl Endpoint {
         } else {
             format!("{base}?{}", passed.join("&"))
         };
-        let client = redis::Client::open(redis_url.as_str()).map_err(|e| invalid(e.to_string()))?;
+        let (client, tls) = client(&redis_url, tls_ca).map_err(invalid)?;
         let info = client.get_connection_info().clone();
         let endpoint = Endpoint {
             addr: info.addr().to_string(),
             username: info.redis_settings().username().map(str::to_owned),
             password: info.redis_settings().password().map(str::to_owned),
             client,
+            tls,
         };
         Ok((config, endpoint))
     }
@@ -164,10 +170,30 @@ impl Endpoint {
             .and_then(|()| publisher.set_write_timeout(Some(command_timeout)))
             .map_err(|e| unreachable(e.to_string()))?;
         let info = self.client.get_connection_info();
-        let socket =
-            Socket::connect(info.addr(), timeout).map_err(|e| unreachable(e.to_string()))?;
+        let socket = Socket::connect(info.addr(), timeout, self.tls.as_ref())
+            .map_err(|e| unreachable(e.to_string()))?;
         Ok((publisher, socket))
     }
+}
+
+/// The redis-rs client of `url` and, for a `rediss://` one, the TLS that reaches it (trusting
+/// the PEM file `tls_ca`, or the system's roots).
+fn client(url: &str, tls_ca: Option<&str>) -> Result<(redis::Client, Option<Tls>), String> {
+    if !url.starts_with("rediss://") {
+        if tls_ca.is_some() {
+            return Err("`tls_ca` needs a rediss:// URL".to_owned());
+        }
+        return redis::Client::open(url)
+            .map(|c| (c, None))
+            .map_err(|e| e.to_string());
+    }
+    let tls = Tls::new(tls_ca)?;
+    let certificates = redis::TlsCertificates {
+        client_tls: None,
+        root_cert: tls.root_pem.clone(),
+    };
+    let client = redis::Client::build_with_tls(url, certificates).map_err(|e| e.to_string())?;
+    Ok((client, Some(tls)))
 }
 
 /// Replaces the password of `url` (if any) with `***`.

@@ -1,4 +1,6 @@
-//! The Redis backend: `redis://[user:password@]host:port[/db][?max_payload=N&timeout_ms=N&connect_ms=N&reconnect=0|1&lease_ms=N]`.
+//! The Redis backend: `redis://[user:password@]host:port[/db][?max_payload=N&timeout_ms=N&connect_ms=N&reconnect=0|1&lease_ms=N]`,
+//! or `rediss://…[?tls_ca=PATH]` for TLS (the server's certificate verified against the PEM
+//! file's CAs, or the system's roots).
 //!
 //! Two connections per transport, as Redis requires: one made by redis-rs for `PUBLISH`, and one
 //! subscribed socket read without blocking (see [`socket`]). Messages carry the seam envelope as
@@ -23,7 +25,7 @@
 //! (commands and their answers, authentication, outages and reconnects), `lease` (claims:
 //! one holder per name, see `Transport::claim`), `replies` (what the
 //! subscribed socket brings, parsed in place), `resp` (the RESP parser), `socket` (the
-//! subscriber's non-blocking socket).
+//! subscriber's non-blocking socket), `tls` (the roots and sessions of `rediss://`).
 
 mod config;
 mod connection;
@@ -34,6 +36,7 @@ mod sharded;
 
 pub(crate) use resp::fuzz_check as fuzz_check_resp;
 mod socket;
+mod tls;
 
 use config::Endpoint;
 pub use config::{RedisConfig, redact_url};

@@ -2,7 +2,8 @@
 //!
 //! redis-rs's synchronous `PubSub` can only receive by blocking (a read timeout is the closest it
 //! has, and Linux rounds socket timeouts up to a scheduler tick), so the subscribing connection
-//! is a plain socket driven here; commands on it are still encoded by redis-rs.
+//! is a plain socket driven here (TCP, a Unix socket, or TLS over TCP through rustls); commands
+//! on it are still encoded by redis-rs.
 
 use std::io::{self, Read, Write};
 use std::net::{TcpStream, ToSocketAddrs};
@@ -12,9 +13,12 @@ use std::time::Duration;
 
 use redis::ConnectionAddr;
 
+use super::tls::Tls;
+
 enum Stream {
     Tcp(TcpStream),
     Unix(UnixStream),
+    Tls(Box<rustls::StreamOwned<rustls::ClientConnection, TcpStream>>),
 }
 
 /// A connected socket with its read buffer.
@@ -30,30 +34,42 @@ pub(super) struct Socket {
 const INITIAL_BUFFER: usize = 64 * 1024;
 
 impl Socket {
-    /// Connects to `addr` within `timeout`; the socket is left non-blocking.
-    pub(super) fn connect(addr: &ConnectionAddr, timeout: Duration) -> io::Result<Self> {
+    /// Connects to `addr` within `timeout` (a `rediss://` server through `tls`, the
+    /// handshake done within it too); the socket is left non-blocking.
+    pub(super) fn connect(
+        addr: &ConnectionAddr,
+        timeout: Duration,
+        tls: Option<&Tls>,
+    ) -> io::Result<Self> {
         let stream = match addr {
-            ConnectionAddr::Tcp(host, port) => {
-                let mut last = io::Error::new(io::ErrorKind::NotFound, "no address resolved");
-                let mut connected = None;
-                for candidate in (host.as_str(), *port).to_socket_addrs()? {
-                    match TcpStream::connect_timeout(&candidate, timeout) {
-                        Ok(stream) => {
-                            connected = Some(stream);
-                            break;
-                        }
-                        Err(e) => last = e,
-                    }
-                }
-                let stream = connected.ok_or(last)?;
-                stream.set_nodelay(true)?;
-                Stream::Tcp(stream)
-            }
+            ConnectionAddr::Tcp(host, port) => Stream::Tcp(tcp(host, *port, timeout)?),
             ConnectionAddr::Unix(path) => Stream::Unix(UnixStream::connect(path)?),
+            ConnectionAddr::TcpTls { host, port, .. } => {
+                let tls = tls.ok_or_else(|| {
+                    io::Error::new(
+                        io::ErrorKind::InvalidInput,
+                        "a rediss:// server without TLS settings",
+                    )
+                })?;
+                let mut stream =
+                    rustls::StreamOwned::new(tls.session(host)?, tcp(host, *port, timeout)?);
+                stream.sock.set_read_timeout(Some(timeout))?;
+                stream.sock.set_write_timeout(Some(timeout))?;
+                while stream.conn.is_handshaking() {
+                    stream.conn.complete_io(&mut stream.sock).map_err(|e| {
+                        io::Error::new(
+                            e.kind(),
+                            format!("TLS handshake with {host}:{port} failed: {e}"),
+                        )
+                    })?;
+                }
+                stream.sock.set_write_timeout(None)?;
+                Stream::Tls(Box::new(stream))
+            }
             _ => {
                 return Err(io::Error::new(
                     io::ErrorKind::Unsupported,
-                    "TLS connections are not supported by the seam Redis backend",
+                    "this kind of connection is not supported by the seam Redis backend",
                 ));
             }
         };
@@ -71,6 +87,7 @@ impl Socket {
         match &self.stream {
             Stream::Tcp(s) => s.set_nonblocking(on),
             Stream::Unix(s) => s.set_nonblocking(on),
+            Stream::Tls(s) => s.sock.set_nonblocking(on),
         }
     }
 
@@ -78,6 +95,16 @@ impl Socket {
         match &self.stream {
             Stream::Tcp(s) => s.set_read_timeout(timeout),
             Stream::Unix(s) => s.set_read_timeout(timeout),
+            Stream::Tls(s) => s.sock.set_read_timeout(timeout),
+        }
+    }
+
+    fn read_some(&mut self) -> io::Result<usize> {
+        let buf = &mut self.buf[self.end..];
+        match &mut self.stream {
+            Stream::Tcp(s) => s.read(buf),
+            Stream::Unix(s) => s.read(buf),
+            Stream::Tls(s) => s.read(buf),
         }
     }
 
@@ -87,6 +114,7 @@ impl Socket {
         let result = match &mut self.stream {
             Stream::Tcp(s) => s.write_all(bytes),
             Stream::Unix(s) => s.write_all(bytes),
+            Stream::Tls(s) => s.write_all(bytes).and_then(|()| s.flush()),
         };
         self.set_nonblocking(true)?;
         result
@@ -123,11 +151,7 @@ impl Socket {
             self.set_read_timeout(Some(wait.max(Duration::from_micros(1))))?;
         }
         let result = loop {
-            let read = match &mut self.stream {
-                Stream::Tcp(s) => s.read(&mut self.buf[self.end..]),
-                Stream::Unix(s) => s.read(&mut self.buf[self.end..]),
-            };
-            match read {
+            match self.read_some() {
                 Ok(0) => {
                     break Err(io::Error::new(
                         io::ErrorKind::UnexpectedEof,
@@ -136,6 +160,7 @@ impl Socket {
                 }
                 Ok(n) => {
                     self.end += n;
+                    self.drain_tls();
                     break Ok(true);
                 }
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
@@ -156,6 +181,20 @@ impl Socket {
         result
     }
 
+    /// Over TLS, takes in what rustls has decrypted already and the socket holds, so nothing
+    /// waits inside rustls while the caller sleeps on the socket's readiness.
+    fn drain_tls(&mut self) {
+        if !matches!(self.stream, Stream::Tls(_)) || self.set_nonblocking(true).is_err() {
+            return;
+        }
+        while self.end < self.buf.len() {
+            match self.read_some() {
+                Ok(n) if n > 0 => self.end += n,
+                _ => break,
+            }
+        }
+    }
+
     /// Drops `count` bytes from the front of the unparsed bytes (the caller has checked they
     /// are there).
     pub(super) fn consume(&mut self, count: usize) {
@@ -168,6 +207,22 @@ impl AsFd for Socket {
         match &self.stream {
             Stream::Tcp(s) => s.as_fd(),
             Stream::Unix(s) => s.as_fd(),
+            Stream::Tls(s) => s.sock.as_fd(),
         }
     }
+}
+
+/// A TCP connection to `host:port` within `timeout`, without Nagle's delay.
+fn tcp(host: &str, port: u16, timeout: Duration) -> io::Result<TcpStream> {
+    let mut last = io::Error::new(io::ErrorKind::NotFound, "no address resolved");
+    for candidate in (host, port).to_socket_addrs()? {
+        match TcpStream::connect_timeout(&candidate, timeout) {
+            Ok(stream) => {
+                stream.set_nodelay(true)?;
+                return Ok(stream);
+            }
+            Err(e) => last = e,
+        }
+    }
+    Err(last)
 }
