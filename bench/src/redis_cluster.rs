@@ -42,21 +42,33 @@ pub struct ClusterNode {
 impl RedisCluster {
     /// Makes a cluster of three primaries on free ports; taken down when dropped.
     pub fn start() -> BenchResult<Self> {
-        Self::make(None, 3)
+        Self::make(None, 3, None)
     }
 
     /// Makes a cluster of `primaries` primaries (1 to 3), each with a replica.
     pub fn start_with(primaries: u16) -> BenchResult<Self> {
-        Self::make(None, primaries)
+        Self::make(None, primaries, None)
+    }
+
+    /// Makes a cluster of three primaries serving TLS only, with the certificates in `certs`
+    /// (`ca.pem`, and `server.pem` and `server.key` naming 127.0.0.1); its URL is
+    /// `rediss-cluster://…?tls_ca=…`. Changing it (`kill_primary_of`, `move_slot`) speaks
+    /// plain RESP and does not work on it.
+    pub fn start_tls(certs: &std::path::Path) -> BenchResult<Self> {
+        Self::make(None, 3, Some(certs))
     }
 
     /// Makes a cluster that lives as long as this process (the script takes it down when the
     /// process exits): for a fixture shared by every test of a process.
     pub fn start_for_process() -> BenchResult<Self> {
-        Self::make(Some(std::process::id()), 3)
+        Self::make(Some(std::process::id()), 3, None)
     }
 
-    fn make(owner: Option<u32>, primaries: u16) -> BenchResult<Self> {
+    fn make(
+        owner: Option<u32>,
+        primaries: u16,
+        tls: Option<&std::path::Path>,
+    ) -> BenchResult<Self> {
         use std::sync::atomic::{AtomicU32, Ordering};
         static NEXT: AtomicU32 = AtomicU32::new(0);
         let pid = std::process::id();
@@ -73,6 +85,9 @@ impl RedisCluster {
             command.args(["--primaries", &primaries.to_string()]);
             if let Some(owner) = owner {
                 command.args(["--owner-pid", &owner.to_string()]);
+            }
+            if let Some(certs) = tls {
+                command.arg("--tls").arg(certs);
             }
             let output = command
                 .stdin(Stdio::null())

@@ -13,6 +13,7 @@
 //! | `redis://[user:password@]host:port[/db]` | [`RedisTransport`] |
 //! | `rediss://[user:password@]host:port[/db][?tls_ca=PATH]` | [`RedisTransport`] over TLS |
 //! | `redis-cluster://[user:password@]host:port[,host:port…]` | [`RedisClusterTransport`]: sharded pub/sub |
+//! | `rediss-cluster://…[?tls_ca=PATH]` | [`RedisClusterTransport`] over TLS |
 //!
 //! Shared-memory settings are listed on [`IceoryxConfig`]; Redis settings on [`RedisConfig`]
 //! (a Redis Cluster takes the same).
@@ -71,10 +72,10 @@ pub mod fuzzing {
 }
 
 /// Opens the transport a URL names: `shm[?settings]`, `local[?settings]`, `redis://…`,
-/// `rediss://…` (TLS) or `redis-cluster://…`.
+/// `rediss://…` (TLS), `redis-cluster://…` or `rediss-cluster://…` (TLS).
 pub fn open(url: &str) -> Result<Box<dyn Transport>, OpenError> {
     let url = url.trim();
-    if url.starts_with("redis-cluster://") {
+    if url.starts_with("redis-cluster://") || url.starts_with("rediss-cluster://") {
         return Ok(Box::new(RedisClusterTransport::open(url)?));
     }
     if ["redis://", "rediss://", "redis+unix://", "unix://"]

@@ -1,4 +1,4 @@
-//! A `redis-cluster://` URL taken apart: the credentials and settings every node link shares,
+//! A `redis-cluster://` (or, for TLS, `rediss-cluster://`) URL taken apart: the credentials and settings every node link shares,
 //! and the seed nodes.
 
 use crate::error::OpenError;
@@ -10,9 +10,15 @@ pub(super) fn parse(url: &str) -> Result<(String, Vec<String>, String), OpenErro
         url: redact_url(url),
         reason: reason.to_owned(),
     };
-    let rest = url
-        .strip_prefix("redis-cluster://")
-        .ok_or_else(|| invalid("a Redis Cluster URL starts with redis-cluster://"))?;
+    let (scheme, rest) = if let Some(rest) = url.strip_prefix("redis-cluster://") {
+        ("redis", rest)
+    } else if let Some(rest) = url.strip_prefix("rediss-cluster://") {
+        ("rediss", rest)
+    } else {
+        return Err(invalid(
+            "a Redis Cluster URL starts with redis-cluster:// (or rediss-cluster:// for TLS)",
+        ));
+    };
     let (authority, query) = match rest.split_once('?') {
         Some((authority, query)) => (authority, format!("?{query}")),
         None => (rest, String::new()),
@@ -41,7 +47,7 @@ pub(super) fn parse(url: &str) -> Result<(String, Vec<String>, String), OpenErro
             "seed {bad:?} is not HOST:PORT (a Redis Cluster has no databases, so no /DB)"
         )));
     }
-    Ok((format!("redis://{user}"), seeds, query))
+    Ok((format!("{scheme}://{user}"), seeds, query))
 }
 
 #[cfg(test)]
@@ -56,6 +62,12 @@ mod tests {
         assert_eq!(node, "redis://u:pw@");
         assert_eq!(seeds, ["127.0.0.1:7000", "127.0.0.1:7001"]);
         assert_eq!(query, "?timeout_ms=900");
+        let (node, _, query) =
+            parse("rediss-cluster://127.0.0.1:7000?tls_ca=/ca.pem").expect("reads TLS");
+        assert_eq!(
+            (node.as_str(), query.as_str()),
+            ("rediss://", "?tls_ca=/ca.pem")
+        );
         for bad in [
             "redis-cluster://",
             "redis-cluster://127.0.0.1",
