@@ -154,6 +154,7 @@ pub(super) fn measure(
     }
     Ok(PingRow {
         transport: "iceoryx2".to_owned(),
+        settings: String::new(),
         wait: "spin",
         size,
         iterations: plan.iterations,

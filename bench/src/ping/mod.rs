@@ -46,6 +46,9 @@ pub struct PingPlan {
 pub struct PingRow {
     /// `shm`, `local`, `redis`, or `iceoryx2` for the floor.
     pub transport: String,
+    /// What the URL turned on beyond the plain backend: `key`, `signed`, `tls`, joined by `+`;
+    /// empty for none (see [`settings_of`]).
+    pub settings: String,
     /// How both sides waited.
     pub wait: &'static str,
     /// Payload size in bytes.
@@ -115,6 +118,7 @@ pub fn time_rounds(
 pub fn document(rows: &[PingRow]) -> Document {
     let mut table = Table::new(&[
         ("transport", Left),
+        ("with", Left),
         ("wait", Left),
         ("size B", Right),
         ("p50 µs", Right),
@@ -124,8 +128,14 @@ pub fn document(rows: &[PingRow]) -> Document {
         ("msgs/s", Right),
     ]);
     for row in rows {
+        let with = if row.settings.is_empty() {
+            "—".to_owned()
+        } else {
+            row.settings.clone()
+        };
         table.row(vec![
             row.transport.clone(),
+            with,
             row.wait.to_owned(),
             row.size.to_string(),
             micros(row.latency.p50_ns),
@@ -141,12 +151,40 @@ pub fn document(rows: &[PingRow]) -> Document {
     doc
 }
 
-/// The shm / iceoryx2 and redis / shm ratios of p50 one run measured, one line each.
+/// What `url` turns on beyond its plain backend: `key` (a frame key), `signed` (a signing key
+/// or a keyring), `tls` (`rediss`), joined by `+`; empty for none.
+pub fn settings_of(url: &str) -> String {
+    let query = url.split_once('?').map_or("", |(_, q)| q);
+    let has = |names: &[&str]| {
+        query
+            .split('&')
+            .any(|pair| names.contains(&pair.split('=').next().unwrap_or("")))
+    };
+    let mut on = Vec::new();
+    if has(&["key", "key_file"]) {
+        on.push("key");
+    }
+    if has(&["sign_key", "keyring"]) {
+        on.push("signed");
+    }
+    if url.starts_with("rediss") {
+        on.push("tls");
+    }
+    on.join("+")
+}
+
+/// The shm / iceoryx2 and redis / shm ratios of p50 one run measured, one line each (plain
+/// rows only: no key, signature or TLS).
 fn ratios(rows: &[PingRow]) -> String {
     let mut out = String::new();
     let p50 = |name: &str, size: usize, wait: Option<&str>| {
         rows.iter()
-            .find(|r| r.transport == name && r.size == size && wait.is_none_or(|w| r.wait == w))
+            .find(|r| {
+                r.transport == name
+                    && r.settings.is_empty()
+                    && r.size == size
+                    && wait.is_none_or(|w| r.wait == w)
+            })
             .map(|r| r.latency.p50_ns as f64)
     };
     let mut sizes: Vec<usize> = rows.iter().map(|r| r.size).collect();
@@ -164,4 +202,23 @@ fn ratios(rows: &[PingRow]) -> String {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_name_what_a_url_turns_on() {
+        assert_eq!(settings_of("shm"), "");
+        assert_eq!(settings_of("shm?prefix=p_&buffer=64"), "");
+        assert_eq!(settings_of("shm?key=s"), "key");
+        assert_eq!(settings_of("shm?key_file=/k&keyring=/r"), "key+signed");
+        assert_eq!(
+            settings_of("redis://127.0.0.1:6379?sign_key=/w.key"),
+            "signed"
+        );
+        assert_eq!(settings_of("rediss://127.0.0.1:6380?tls_ca=/ca.pem"), "tls");
+        assert_eq!(settings_of("rediss-cluster://h:1?key=s"), "key+tls");
+    }
 }

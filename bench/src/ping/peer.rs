@@ -116,6 +116,7 @@ pub(super) fn measure(
     peer.finish().map_err(peer_error)?;
     Ok(PingRow {
         transport: transport.backend().name().to_owned(),
+        settings: super::settings_of(url),
         wait: wait.name(),
         size,
         iterations: plan.iterations,
