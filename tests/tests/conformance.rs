@@ -709,43 +709,41 @@ fn signed_frames_name_their_signer(ctx: &TestContext) {
         let reached = receiver.try_receive().expect("receive").is_some();
         assert!(!reached, "a forgery reached the caller");
     };
-    forge(
-        &mut bridge,
-        &channel,
-        seam_transport::Origin {
-            signer: 0x1002,
-            ..o
-        },
-        b"genuine",
-    );
-    forge(
-        &mut bridge,
-        &channel,
-        seam_transport::Origin {
-            signer: 0x1003,
-            ..o
-        },
-        b"genuine",
-    );
-    forge(&mut bridge, &channel, o, b"Genuine");
-    forge(
-        &mut bridge,
-        &channel,
-        seam_transport::Origin {
-            seq: o.seq + 7,
-            ..o
-        },
-        b"genuine",
-    );
-    forge(
-        &mut bridge,
-        &channel,
-        seam_transport::Origin {
-            publisher: o.publisher ^ 1,
-            ..o
-        },
-        b"genuine",
-    );
+    use seam_transport::Origin;
+    let changed: [(Origin, &[u8]); 5] = [
+        (
+            Origin {
+                signer: 0x1002,
+                ..o
+            },
+            b"genuine",
+        ),
+        (
+            Origin {
+                signer: 0x1003,
+                ..o
+            },
+            b"genuine",
+        ),
+        (o, b"Genuine"),
+        (
+            Origin {
+                seq: o.seq + 7,
+                ..o
+            },
+            b"genuine",
+        ),
+        (
+            Origin {
+                publisher: o.publisher ^ 1,
+                ..o
+            },
+            b"genuine",
+        ),
+    ];
+    for (origin, payload) in changed {
+        forge(&mut bridge, &channel, origin, payload);
+    }
     let mut noise = 0x9e37_79b9_7f4a_7c15u64;
     for i in 0..200u32 {
         let mut signature = [0u8; 64];

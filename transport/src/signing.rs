@@ -240,6 +240,33 @@ impl Keyring {
     }
 }
 
+/// Makes a signer for each `(identity, name)` of `signers`, writes its key file `DIR/NAME.key`
+/// (its owner's only) and the keyring `DIR/keyring` of them all; returns each one's URL
+/// settings (`sign_key=…&keyring=…`), in order. `dir` must exist.
+pub fn write_keys(dir: &Path, signers: &[(u128, String)]) -> std::io::Result<Vec<String>> {
+    let at = |path: &Path, e: std::io::Error| {
+        std::io::Error::new(e.kind(), format!("{}: {e}", path.display()))
+    };
+    let keyring = dir.join("keyring");
+    let mut made = Vec::with_capacity(signers.len());
+    let mut settings = Vec::with_capacity(signers.len());
+    for (id, name) in signers {
+        let signer = Signer::generate(*id)?;
+        let path = dir.join(format!("{name}.key"));
+        signer.write_file(&path).map_err(|e| at(&path, e))?;
+        settings.push(format!(
+            "sign_key={}&keyring={}",
+            path.display(),
+            keyring.display()
+        ));
+        made.push(signer);
+    }
+    Keyring::of(&made)
+        .write_file(&keyring)
+        .map_err(|e| at(&keyring, e))?;
+    Ok(settings)
+}
+
 /// A transport's signing settings: its own signer and the keyring it checks with.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Signing {

@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use seam_transport::signing::{Keyring, Signer};
+use seam_transport::signing;
 
 use crate::error::{BenchError, BenchResult};
 use crate::pod::SceneIds;
@@ -32,26 +32,13 @@ impl RunKeys {
         let dir = std::env::temp_dir().join(format!("seam-keys-{run_id}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).map_err(|e| BenchError::io("create", dir.display(), e))?;
         let ids = SceneIds::new(run_id, &scene.name);
-        let mut signers = Vec::with_capacity(scene.clusters.len());
-        let mut key_files = Vec::with_capacity(scene.clusters.len());
-        for cluster in &scene.clusters {
-            let signer = Signer::generate(ids.cluster(&cluster.name).as_u128())
-                .map_err(|e| BenchError::io("make a key for", &cluster.name, e))?;
-            let path = dir.join(format!("{}.key", cluster.name));
-            signer
-                .write_file(&path)
-                .map_err(|e| BenchError::io("write", path.display(), e))?;
-            signers.push(signer);
-            key_files.push(path);
-        }
-        let keyring = dir.join("keyring");
-        Keyring::of(&signers)
-            .write_file(&keyring)
-            .map_err(|e| BenchError::io("write", keyring.display(), e))?;
-        let settings = key_files
+        let signers: Vec<(u128, String)> = scene
+            .clusters
             .iter()
-            .map(|key| format!("sign_key={}&keyring={}", key.display(), keyring.display()))
+            .map(|c| (ids.cluster(&c.name).as_u128(), c.name.clone()))
             .collect();
+        let settings = signing::write_keys(&dir, &signers)
+            .map_err(|e| BenchError::io("write the run's keys to", dir.display(), e))?;
         Ok(Self { dir, settings })
     }
 

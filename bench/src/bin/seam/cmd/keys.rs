@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use seam_bench::error::{BenchError, BenchResult};
-use seam_transport::signing::{Keyring, Signer};
+use seam_transport::signing;
 
 /// `seam keys`'s flags.
 #[derive(clap::Args)]
@@ -35,26 +35,11 @@ pub(crate) fn main(args: &KeysArgs) -> BenchResult<()> {
         .collect::<BenchResult<Vec<u128>>>()?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| BenchError::io("create", args.out.display(), e))?;
-    let mut signers = Vec::with_capacity(ids.len());
-    for (id, text) in ids.iter().zip(&args.clusters) {
-        let signer =
-            Signer::generate(*id).map_err(|e| BenchError::io("make a key for", text, e))?;
-        let path = args.out.join(format!("{id:032x}.key"));
-        signer
-            .write_file(&path)
-            .map_err(|e| BenchError::io("write", path.display(), e))?;
-        signers.push(signer);
-    }
-    let keyring = args.out.join("keyring");
-    Keyring::of(&signers)
-        .write_file(&keyring)
-        .map_err(|e| BenchError::io("write", keyring.display(), e))?;
-    for id in &ids {
-        println!(
-            "{id:032x}: sign_key={}&keyring={}",
-            args.out.join(format!("{id:032x}.key")).display(),
-            keyring.display()
-        );
+    let signers: Vec<(u128, String)> = ids.iter().map(|id| (*id, format!("{id:032x}"))).collect();
+    let settings = signing::write_keys(&args.out, &signers)
+        .map_err(|e| BenchError::io("write keys to", args.out.display(), e))?;
+    for ((_, name), settings) in signers.iter().zip(settings) {
+        println!("{name}: {settings}");
     }
     Ok(())
 }
